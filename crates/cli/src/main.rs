@@ -1,0 +1,2 @@
+//! The `indoorloc` binary.
+fn main() {}
