@@ -1,2 +1,57 @@
-//! The `indoorloc` binary.
-fn main() {}
+//! `indoorloc`: tells a camera where it is inside a building.
+//!
+//! The binary is the command-line definition plus glue: each subcommand in `cmd/` turns its
+//! arguments into a library call and prints the result, a table for people or one JSON document
+//! with `--json`. Errors print as one line (`indoorloc: file: problem`) and exit with code 2.
+
+mod cmd;
+mod output;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Tells a camera where it is inside a building, from its images.
+#[derive(Parser, Debug)]
+#[command(name = "indoorloc", version, about, long_about = None, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Compare estimated poses with ground truth: error statistics, accuracy, plots.
+    Eval(cmd::eval::EvalArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Eval(args) => cmd::eval::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            if is_broken_pipe(&err) {
+                // `indoorloc eval ... | head` is not a failure.
+                return ExitCode::SUCCESS;
+            }
+            eprintln!("indoorloc: {}", one_line(&format!("{err:#}")));
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+/// Error messages are promised to be one line; library messages that quote input could carry a
+/// newline.
+fn one_line(msg: &str) -> String {
+    msg.replace(['\n', '\r'], " ")
+}

@@ -1,0 +1,272 @@
+//! `indoorloc eval`: errors of estimated poses against ground truth.
+
+use crate::output::{print_json, print_text};
+use anyhow::{Context, Result};
+use clap::Args;
+use data::formats::{self, Format};
+use data::matching::{MatchedBy, match_frames};
+use geom::metrics::{ACCURACY_THRESHOLDS, PoseEvaluation, Smoothness};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Arguments of `indoorloc eval`.
+#[derive(Args, Debug)]
+pub struct EvalArgs {
+    /// Ground-truth poses: a TUM file, localize JSON lines, a native dataset, a 7-Scenes scene or
+    /// sequence folder, a Cambridge list, a COLMAP model folder, a NeRF transforms.json or a
+    /// robot log CSV; the format is told from the content.
+    #[arg(long)]
+    gt: PathBuf,
+    /// Estimated poses, in any format --gt accepts.
+    #[arg(long)]
+    est: PathBuf,
+    /// Format of --gt when detection guesses wrong (native, 7scenes, cambridge, tum, colmap,
+    /// nerf, robotlog, jsonl).
+    #[arg(long, value_name = "FORMAT")]
+    gt_format: Option<Format>,
+    /// Format of --est when detection guesses wrong.
+    #[arg(long, value_name = "FORMAT")]
+    est_format: Option<Format>,
+    /// Largest timestamp difference, seconds, when frames are paired by time (TUM, robot logs).
+    #[arg(long, default_value_t = 0.01, value_name = "SECONDS")]
+    max_dt: f64,
+    /// Scene cuts (cuts.csv, a list of frame numbers, or `scenecut --json` output): statistics
+    /// are also split into frames just after a cut and the others.
+    #[arg(long, value_name = "FILE")]
+    cuts: Option<PathBuf>,
+    /// With --cuts: a frame counts as "near a cut" when it is at most this many frames after one.
+    #[arg(long, default_value_t = 10, value_name = "FRAMES")]
+    cut_window: u64,
+    /// Write an HTML report with plots (error CDF, errors over time, top-down trajectory) here.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+    /// Write every matched frame's errors here as CSV (`frame,pos_err_m,rot_err_deg`).
+    #[arg(long, value_name = "CSV")]
+    per_frame: Option<PathBuf>,
+    /// Print one JSON document instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// The `--json` document.
+#[derive(Debug, Serialize)]
+struct EvalOutput {
+    frames: usize,
+    median_pos_m: f64,
+    median_rot_deg: f64,
+    mean_pos_m: f64,
+    mean_rot_deg: f64,
+    rmse_pos_m: f64,
+    rmse_rot_deg: f64,
+    max_pos_m: f64,
+    max_rot_deg: f64,
+    acc_25cm_2deg: f64,
+    acc_50cm_5deg: f64,
+    acc_5m_10deg: f64,
+    mae_xyz_m: Vec<f64>,
+    mse_xyz_m2: Vec<f64>,
+    rmse_xyz_m: Vec<f64>,
+    jitter_m: f64,
+    smoothness_est: Option<Smoothness>,
+    smoothness_gt: Option<Smoothness>,
+    matched_by: MatchedBy,
+    gt_frames: usize,
+    est_frames: usize,
+    unmatched_est: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    near_cuts: Option<Subset>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    away_from_cuts: Option<Subset>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    report: Option<PathBuf>,
+    seconds: f64,
+}
+
+/// Statistics of a subset of frames (near cuts, away from cuts).
+#[derive(Debug, Serialize)]
+struct Subset {
+    frames: usize,
+    median_pos_m: Option<f64>,
+    median_rot_deg: Option<f64>,
+    mean_pos_m: Option<f64>,
+    acc_25cm_2deg: Option<f64>,
+    acc_50cm_5deg: Option<f64>,
+    acc_5m_10deg: Option<f64>,
+}
+
+/// Runs `indoorloc eval`.
+pub fn run(args: &EvalArgs) -> Result<()> {
+    let start = Instant::now();
+    let (gt_format, gt) = read_poses(&args.gt, args.gt_format)?;
+    let (est_format, est) = read_poses(&args.est, args.est_format)?;
+    let time_keyed = |f: Format| matches!(f, Format::Tum | Format::RobotLog);
+    let matching = match_frames(
+        &gt,
+        &args.gt,
+        &est,
+        &args.est,
+        time_keyed(gt_format) || time_keyed(est_format),
+        args.max_dt,
+    )?;
+    let gt_poses: Vec<_> = matching.pairs.iter().map(|&(g, _)| gt.frames[g].pose).collect();
+    let est_poses: Vec<_> = matching.pairs.iter().map(|&(_, e)| est.frames[e].pose).collect();
+    let ev = PoseEvaluation::of(&gt_poses, &est_poses)?;
+
+    if let Some(path) = &args.per_frame {
+        write_per_frame(path, &matching.pairs, &est, &ev)?;
+    }
+    let cut_split = match &args.cuts {
+        Some(path) => {
+            let cuts = data::cuts::read(path)?;
+            let gt_index: Vec<usize> = matching.pairs.iter().map(|&(g, _)| g).collect();
+            Some(split_near_cuts(&ev, &gt_index, &cuts, args.cut_window))
+        }
+        None => None,
+    };
+
+    let acc = |i: usize| ev.accuracy[i].fraction;
+    let mut out = EvalOutput {
+        frames: ev.pos_err_m.len(),
+        median_pos_m: ev.position.median,
+        median_rot_deg: ev.rotation_deg.median,
+        mean_pos_m: ev.position.mean,
+        mean_rot_deg: ev.rotation_deg.mean,
+        rmse_pos_m: ev.position.rmse,
+        rmse_rot_deg: ev.rotation_deg.rmse,
+        max_pos_m: ev.position.max,
+        max_rot_deg: ev.rotation_deg.max,
+        acc_25cm_2deg: acc(0),
+        acc_50cm_5deg: acc(1),
+        acc_5m_10deg: acc(2),
+        mae_xyz_m: ev.axes.mae.clone(),
+        mse_xyz_m2: ev.axes.mse.clone(),
+        rmse_xyz_m: ev.axes.rmse.clone(),
+        jitter_m: ev.jitter_m,
+        smoothness_est: ev.smoothness_est,
+        smoothness_gt: ev.smoothness_gt,
+        matched_by: matching.by,
+        gt_frames: gt.len(),
+        est_frames: est.len(),
+        unmatched_est: matching.unmatched_est,
+        near_cuts: None,
+        away_from_cuts: None,
+        report: None,
+        seconds: 0.0,
+    };
+    if let Some((near, away)) = cut_split {
+        out.near_cuts = Some(near);
+        out.away_from_cuts = Some(away);
+    }
+    out.seconds = start.elapsed().as_secs_f64();
+    if args.json {
+        print_json(&out)
+    } else {
+        print_text(&human_table(&out))
+    }
+}
+
+fn write_per_frame(
+    path: &Path,
+    pairs: &[(usize, usize)],
+    est: &data::Trajectory,
+    ev: &PoseEvaluation,
+) -> Result<()> {
+    use std::io::Write;
+    data::io::write_atomic(path, |w| {
+        writeln!(w, "frame,pos_err_m,rot_err_deg")?;
+        for (k, &(_, e)) in pairs.iter().enumerate() {
+            writeln!(w, "{},{},{}", est.frames[e].name, ev.pos_err_m[k], ev.rot_err_deg[k])?;
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
+
+fn read_poses(path: &Path, format: Option<Format>) -> Result<(Format, data::Trajectory)> {
+    let format = match format {
+        Some(f) => f,
+        None => formats::detect(path)?,
+    };
+    let traj = formats::read(path, Some(format))
+        .with_context(|| format!("reading {format} poses"))?;
+    Ok((format, traj))
+}
+
+/// Splits per-frame errors into frames at most `window` frames after a cut (by ground-truth
+/// frame index) and the others.
+fn split_near_cuts(ev: &PoseEvaluation, gt_index: &[usize], cuts: &[u64], window: u64) -> (Subset, Subset) {
+    let near = |i: usize| {
+        let i = i as u64;
+        // cuts are sorted: the last cut at or before i decides.
+        let k = cuts.partition_point(|&c| c <= i);
+        k > 0 && i - cuts[k - 1] <= window
+    };
+    let (mut near_idx, mut away_idx) = (Vec::new(), Vec::new());
+    for (k, &g) in gt_index.iter().enumerate() {
+        if near(g) { near_idx.push(k) } else { away_idx.push(k) }
+    }
+    (subset(ev, &near_idx), subset(ev, &away_idx))
+}
+
+fn subset(ev: &PoseEvaluation, idx: &[usize]) -> Subset {
+    let pos: Vec<f64> = idx.iter().map(|&i| ev.pos_err_m[i]).collect();
+    let rot: Vec<f64> = idx.iter().map(|&i| ev.rot_err_deg[i]).collect();
+    let p = geom::metrics::Stats::of(&pos).ok();
+    let r = geom::metrics::Stats::of(&rot).ok();
+    let acc = |k: usize| {
+        (!pos.is_empty()).then(|| {
+            let (m, d) = ACCURACY_THRESHOLDS[k];
+            geom::metrics::accuracy(&pos, &rot, m, d)
+        })
+    };
+    Subset {
+        frames: idx.len(),
+        median_pos_m: p.map(|s| s.median),
+        median_rot_deg: r.map(|s| s.median),
+        mean_pos_m: p.map(|s| s.mean),
+        acc_25cm_2deg: acc(0),
+        acc_50cm_5deg: acc(1),
+        acc_5m_10deg: acc(2),
+    }
+}
+
+fn human_table(o: &EvalOutput) -> String {
+    let mut s = String::new();
+    s.push_str(&format!(
+        "{} frames matched by {:?} ({} ground truth, {} estimates, {} unmatched)\n",
+        o.frames, o.matched_by, o.gt_frames, o.est_frames, o.unmatched_est
+    ));
+    s.push_str(&format!("{:<22}{:>12}{:>12}\n", "", "position m", "rotation °"));
+    for (name, p, r) in [
+        ("median", o.median_pos_m, o.median_rot_deg),
+        ("mean", o.mean_pos_m, o.mean_rot_deg),
+        ("rmse", o.rmse_pos_m, o.rmse_rot_deg),
+        ("max", o.max_pos_m, o.max_rot_deg),
+    ] {
+        s.push_str(&format!("{name:<22}{p:>12.4}{r:>12.3}\n"));
+    }
+    for (name, v) in [
+        ("within 0.25 m, 2°", o.acc_25cm_2deg),
+        ("within 0.5 m, 5°", o.acc_50cm_5deg),
+        ("within 5 m, 10°", o.acc_5m_10deg),
+    ] {
+        s.push_str(&format!("{name:<22}{:>11.1}%\n", v * 100.0));
+    }
+    s.push_str(&format!(
+        "{:<22}{:>8.4} {:>8.4} {:>8.4}\n",
+        "MAE x, y, z (m)", o.mae_xyz_m[0], o.mae_xyz_m[1], o.mae_xyz_m[2]
+    ));
+    for (name, sub) in [("near cuts", &o.near_cuts), ("away from cuts", &o.away_from_cuts)] {
+        if let Some(sub) = sub {
+            s.push_str(&format!(
+                "{name:<22}{:>6} frames, median {} m, {} °\n",
+                sub.frames,
+                sub.median_pos_m.map_or("-".into(), |v| format!("{v:.4}")),
+                sub.median_rot_deg.map_or("-".into(), |v| format!("{v:.3}")),
+            ));
+        }
+    }
+    s.push_str(&format!("{:<22}{:>11.3}s\n", "time", o.seconds));
+    s
+}

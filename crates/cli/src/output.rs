@@ -1,0 +1,19 @@
+//! Printing results: one JSON document on stdout with `--json`, a table for people otherwise.
+
+use serde::Serialize;
+use std::io::Write;
+
+/// Prints `value` as one pretty JSON document on stdout.
+pub fn print_json<T: Serialize>(value: &T) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    serde_json::to_writer_pretty(&mut out, value)?;
+    writeln!(out)?;
+    Ok(())
+}
+
+/// Prints text for people on stdout.
+pub fn print_text(text: &str) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())?;
+    Ok(())
+}

@@ -1,0 +1,5 @@
+//! Integration tests of the `indoorloc` binary, one module per theme.
+
+mod eval_cli;
+mod metrics_reference;
+mod util;

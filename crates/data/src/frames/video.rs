@@ -1,0 +1,590 @@
+//! Video files as frame sources, through FFmpeg's libraries (`ffmpeg-next`): demux the best video
+//! stream, decode packet by packet, convert each frame to RGB24 (and optionally to a smaller size)
+//! with swscale. Only the decoder's own look-ahead is buffered, so memory does not grow with the
+//! length of the video.
+
+use super::{Frame, FrameSource};
+use crate::error::{DataError, Result};
+use ffmpeg_next as ff;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// Gives up on a video after this many errors in a row without a decoded frame: every error
+/// consumes input, so this never triggers on a damaged but finite file; it guards against a
+/// decoder that keeps failing without making progress.
+const MAX_CONSECUTIVE_ERRORS: u32 = 1000;
+
+/// Initialises FFmpeg once per process. Also lowers FFmpeg's log level to errors only: its
+/// warnings (deprecated pixel formats, stream probing notes) would otherwise flood stderr, which
+/// carries the command line's progress and messages.
+fn init() -> std::result::Result<(), String> {
+    static INIT: OnceLock<std::result::Result<(), String>> = OnceLock::new();
+    INIT.get_or_init(|| {
+        ff::init().map_err(|e| format!("cannot initialise FFmpeg: {e}"))?;
+        ff::util::log::set_level(ff::util::log::Level::Error);
+        Ok(())
+    })
+    .clone()
+}
+
+/// A rational as `f64`, or `None` where it is zero, negative or undefined (FFmpeg uses 0/0 for
+/// "unknown").
+fn positive(r: ff::Rational) -> Option<f64> {
+    (r.numerator() > 0 && r.denominator() > 0).then(|| f64::from(r.numerator()) / f64::from(r.denominator()))
+}
+
+/// The swscale context and the input it was made for.
+struct Scaler {
+    ctx: ff::software::scaling::Context,
+    input: (ff::format::Pixel, u32, u32),
+}
+
+// SAFETY: an `SwsContext` has no thread affinity (no thread-local state, no back-pointer to its
+// creating thread); it only must not be used from two threads at once, which `&mut` access through
+// the owning `VideoFile` already rules out. ffmpeg-next leaves it `!Send` only because it holds a
+// raw pointer. Moving it is what lets a server hand a video source to a worker thread.
+unsafe impl Send for Scaler {}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum State {
+    /// Reading packets from the file.
+    Reading,
+    /// The file is exhausted; the decoder gives its last buffered frames.
+    Draining,
+    /// Nothing more to give.
+    Done,
+}
+
+/// The frames of a video file, decoded one at a time with FFmpeg and converted to RGB.
+///
+/// Frames come in decoding-output (presentation) order; [`Frame::index`] counts them from 0 and
+/// [`Frame::t`] is the frame's presentation timestamp in seconds (the stream's time base, not
+/// shifted to start at 0). A damaged packet yields an `Err` naming the file, and the iteration
+/// goes on with the next packet.
+pub struct VideoFile {
+    path: PathBuf,
+    input: ff::format::context::Input,
+    stream_index: usize,
+    decoder: ff::decoder::Video,
+    time_base: Option<f64>,
+    fps: Option<f64>,
+    len_hint: Option<u64>,
+    target: Option<(u32, u32)>,
+    scaler: Option<Scaler>,
+    packet: ff::Packet,
+    decoded: ff::frame::Video,
+    rgb: ff::frame::Video,
+    state: State,
+    next_index: u64,
+    errors_in_a_row: u32,
+}
+
+impl std::fmt::Debug for VideoFile {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("VideoFile")
+            .field("path", &self.path)
+            .field("frame_size", &self.frame_size())
+            .field("fps", &self.fps)
+            .field("len_hint", &self.len_hint)
+            .field("next_index", &self.next_index)
+            .finish_non_exhaustive()
+    }
+}
+
+impl VideoFile {
+    /// Opens `path` and its best video stream; frames keep the video's own size.
+    ///
+    /// # Errors
+    /// The file is missing or unreadable, is not a media file FFmpeg can read, has no video
+    /// stream, or its codec has no decoder; the message names the file.
+    pub fn open(path: &Path) -> Result<Self> {
+        Self::open_scaled(path, None)
+    }
+
+    /// Like [`open`](Self::open), but with `size = Some((width, height))` every frame is scaled to
+    /// that size while converting to RGB (area averaging when shrinking). Scene-cut detection
+    /// works on small frames, and scaling inside swscale costs little next to resizing the full
+    /// RGB frame afterwards. The aspect ratio is the caller's choice.
+    ///
+    /// # Errors
+    /// As [`open`](Self::open), and a zero width or height.
+    pub fn open_scaled(path: &Path, size: Option<(u32, u32)>) -> Result<Self> {
+        let err = |msg: String| DataError::Frames {
+            path: path.to_path_buf(),
+            msg,
+        };
+        if let Some((w, h)) = size {
+            if w == 0 || h == 0 || w > 16384 || h > 16384 {
+                return Err(err(format!("cannot scale video frames to {w}x{h}")));
+            }
+        }
+        // A clean "No such file or directory" from the OS rather than FFmpeg's wording.
+        let meta = std::fs::metadata(path).map_err(|e| DataError::io(path, e))?;
+        if meta.is_dir() {
+            return Err(err("is a folder, not a video file".into()));
+        }
+        init().map_err(err)?;
+
+        // ffmpeg-next panics on paths that are not UTF-8 or hold a NUL, so refuse them here.
+        let utf8 = path
+            .to_str()
+            .filter(|s| !s.contains('\0'))
+            .ok_or_else(|| err("FFmpeg needs a UTF-8 file name; rename the file".into()))?;
+        // The `file:` protocol prefix stops FFmpeg from reading a colon in a local file name
+        // (`cam:1.mp4`) as a protocol.
+        let input = ff::format::input(&format!("file:{utf8}"))
+            .map_err(|e| err(format!("cannot open as a video: {e}")))?;
+
+        let stream = input
+            .streams()
+            .best(ff::media::Type::Video)
+            .ok_or_else(|| err("no video stream in this file".into()))?;
+        let stream_index = stream.index();
+        let time_base = positive(stream.time_base());
+        let fps = positive(stream.avg_frame_rate()).or_else(|| positive(stream.rate()));
+        let len_hint = len_hint(&input, &stream, time_base, fps);
+
+        let mut ctx = ff::codec::context::Context::from_parameters(stream.parameters())
+            .map_err(|e| err(format!("cannot read the video stream's parameters: {e}")))?;
+        // Frame threading with FFmpeg's automatic thread count: decoding is the costly part of
+        // reading a video; it adds a few frames of latency, which a file source does not mind.
+        ctx.set_threading(ff::codec::threading::Config {
+            kind: ff::codec::threading::Type::Frame,
+            count: 0,
+            ..Default::default()
+        });
+        let mut decoder = ctx.decoder();
+        // Timestamps of decoded frames are then in the stream's time base, as the packets'.
+        decoder.set_packet_time_base(stream.time_base());
+        let decoder = decoder
+            .video()
+            .map_err(|e| err(format!("cannot decode the video stream ({:?}): {e}", stream.parameters().id())))?;
+
+        Ok(Self {
+            path: path.to_path_buf(),
+            input,
+            stream_index,
+            decoder,
+            time_base,
+            fps,
+            len_hint,
+            target: size,
+            scaler: None,
+            packet: ff::Packet::empty(),
+            decoded: ff::frame::Video::empty(),
+            rgb: ff::frame::Video::empty(),
+            state: State::Reading,
+            next_index: 0,
+            errors_in_a_row: 0,
+        })
+    }
+
+    /// The size of the frames this source gives: the requested size of
+    /// [`open_scaled`](Self::open_scaled), else the video's coded size from its header.
+    pub fn frame_size(&self) -> (u32, u32) {
+        self.target
+            .unwrap_or((self.decoder.width(), self.decoder.height()))
+    }
+
+    fn error(&self, msg: String) -> DataError {
+        DataError::Frames {
+            path: self.path.clone(),
+            msg,
+        }
+    }
+
+    /// Counts an error; past [`MAX_CONSECUTIVE_ERRORS`] the source stops.
+    fn failed(&mut self, msg: String) -> Option<Result<Frame>> {
+        self.errors_in_a_row += 1;
+        if self.errors_in_a_row >= MAX_CONSECUTIVE_ERRORS {
+            self.state = State::Done;
+            return Some(Err(self.error(format!("{msg}; giving up after {MAX_CONSECUTIVE_ERRORS} errors in a row"))));
+        }
+        Some(Err(self.error(msg)))
+    }
+
+    /// The next frame, `Some(Err)` for a failure that the iteration can go past, `None` at the
+    /// end.
+    pub fn next_frame(&mut self) -> Option<Result<Frame>> {
+        let again = ff::Error::Other {
+            errno: ff::util::error::EAGAIN,
+        };
+        loop {
+            if self.state == State::Done {
+                return None;
+            }
+            // Take what the decoder has ready before feeding it more, so it never holds more than
+            // its own look-ahead.
+            match self.decoder.receive_frame(&mut self.decoded) {
+                Ok(()) => {
+                    self.errors_in_a_row = 0;
+                    return Some(self.convert());
+                }
+                Err(ff::Error::Eof) => {
+                    self.state = State::Done;
+                    return None;
+                }
+                Err(e) if e == again => {}
+                Err(e) => {
+                    let index = self.next_index;
+                    return self.failed(format!("cannot decode the frame after frame {index}: {e}"));
+                }
+            }
+            if self.state == State::Draining {
+                // A drained decoder answers EOF, not EAGAIN; stop rather than wait for nothing.
+                self.state = State::Done;
+                return None;
+            }
+            match self.packet.read(&mut self.input) {
+                Ok(()) => {
+                    if self.packet.stream() != self.stream_index {
+                        continue;
+                    }
+                    if let Err(e) = self.decoder.send_packet(&self.packet) {
+                        let pos = self.packet.position();
+                        return self.failed(format!("damaged video packet at byte {pos}: {e}"));
+                    }
+                }
+                Err(e) => {
+                    // InvalidData is a corrupt packet the demuxer can resync past. Other errors
+                    // (I/O) stick in FFmpeg and repeat on every later read, so the file ends here.
+                    let resync = matches!(e, ff::Error::InvalidData);
+                    if !resync {
+                        self.start_draining();
+                    }
+                    if matches!(e, ff::Error::Eof) {
+                        continue;
+                    }
+                    return self.failed(format!("cannot read the video file: {e}"));
+                }
+            }
+        }
+    }
+
+    fn start_draining(&mut self) {
+        self.state = match self.decoder.send_eof() {
+            Ok(()) => State::Draining,
+            Err(_) => State::Done,
+        };
+    }
+
+    /// Converts the frame in `self.decoded` to an RGB [`Frame`].
+    fn convert(&mut self) -> Result<Frame> {
+        let index = self.next_index;
+        self.next_index += 1;
+        let t = self
+            .decoded
+            .timestamp()
+            .or_else(|| self.decoded.pts())
+            .zip(self.time_base)
+            .map(|(ts, tb)| ts as f64 * tb);
+
+        let (format, w, h) = (self.decoded.format(), self.decoded.width(), self.decoded.height());
+        if self.scaler.as_ref().is_none_or(|s| s.input != (format, w, h)) {
+            // First frame, or the stream changed size or pixel format mid-way (legal in MPEG-TS,
+            // WebM): build a converter for what actually arrives rather than what the header said.
+            let (ow, oh) = self.target.unwrap_or((w, h));
+            let flags = if ow < w && oh < h {
+                ff::software::scaling::Flags::AREA
+            } else {
+                ff::software::scaling::Flags::BILINEAR
+            };
+            let ctx = ff::software::scaling::Context::get(format, w, h, ff::format::Pixel::RGB24, ow, oh, flags)
+                .map_err(|e| self.error(format!("frame {index}: cannot convert {format:?} {w}x{h} to RGB: {e}")))?;
+            self.scaler = Some(Scaler {
+                ctx,
+                input: (format, w, h),
+            });
+            // The output buffer is reallocated by the scaler for the new size.
+            self.rgb = ff::frame::Video::empty();
+        }
+        let scaler = self
+            .scaler
+            .as_mut()
+            .ok_or_else(|| DataError::Frames {
+                path: self.path.clone(),
+                msg: format!("frame {index}: no RGB converter"),
+            })?;
+        if let Err(e) = scaler.ctx.run(&self.decoded, &mut self.rgb) {
+            return Err(self.error(format!("frame {index}: cannot convert to RGB: {e}")));
+        }
+        let image = rgb_image(&self.rgb).ok_or_else(|| self.error(format!("frame {index}: RGB frame smaller than its size")))?;
+        Ok(Frame {
+            index,
+            name: format!("{index:06}"),
+            t,
+            image,
+        })
+    }
+}
+
+/// Copies an RGB24 frame into an image row by row: FFmpeg pads each row to its stride (alignment
+/// for SIMD), which can exceed `3 * width`.
+fn rgb_image(frame: &ff::frame::Video) -> Option<image::RgbImage> {
+    let (w, h) = (frame.width(), frame.height());
+    let row = 3 * w as usize;
+    let stride = frame.stride(0);
+    let data = frame.data(0);
+    let mut buf = Vec::with_capacity(row * h as usize);
+    for y in 0..h as usize {
+        buf.extend_from_slice(data.get(y * stride..y * stride + row)?);
+    }
+    image::RgbImage::from_raw(w, h, buf)
+}
+
+/// The frame count the container states, else one estimated from the duration and frame rate.
+fn len_hint(
+    input: &ff::format::context::Input,
+    stream: &ff::format::stream::Stream<'_>,
+    time_base: Option<f64>,
+    fps: Option<f64>,
+) -> Option<u64> {
+    if let Ok(n @ 1..) = u64::try_from(stream.frames()) {
+        return Some(n);
+    }
+    let fps = fps?;
+    let seconds = match (stream.duration(), time_base) {
+        (d, Some(tb)) if d > 0 => d as f64 * tb,
+        // The container's duration, in AV_TIME_BASE (microsecond) units.
+        _ if input.duration() > 0 => input.duration() as f64 / f64::from(ff::ffi::AV_TIME_BASE),
+        _ => return None,
+    };
+    Some((seconds * fps).round() as u64)
+}
+
+impl Iterator for VideoFile {
+    type Item = Result<Frame>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        self.next_frame()
+    }
+}
+
+impl FrameSource for VideoFile {
+    fn len_hint(&self) -> Option<u64> {
+        self.len_hint
+    }
+
+    fn fps(&self) -> Option<f64> {
+        self.fps
+    }
+
+    fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SHARED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared");
+
+    fn shared(rel: &str) -> PathBuf {
+        Path::new(SHARED).join(rel)
+    }
+
+    fn tempdir() -> Result<tempfile::TempDir> {
+        tempfile::tempdir().map_err(|e| DataError::io("tempdir", e))
+    }
+
+    /// Mean absolute difference of the green channels of two equal-size images.
+    fn mean_diff(a: &image::RgbImage, b: &image::RgbImage) -> f64 {
+        let sum: u64 = a
+            .pixels()
+            .zip(b.pixels())
+            .map(|(p, q)| u64::from(p[1].abs_diff(q[1])))
+            .sum();
+        sum as f64 / f64::from(a.width() * a.height())
+    }
+
+    #[test]
+    fn frames_video_real_cuts_decodes_every_frame() -> Result<()> {
+        // README: H.264 320x240, 25 fps CFR, 475 frames; hard cuts at 97, 217, 337, 405.
+        let path = shared("data/scenecut_real/opencv_samples_cuts.mp4");
+        let mut src = VideoFile::open(&path)?;
+        assert_eq!(src.len_hint(), Some(475));
+        assert!((src.fps().unwrap_or(0.0) - 25.0).abs() < 1e-9, "{:?}", src.fps());
+        assert_eq!(src.frame_size(), (320, 240));
+        assert_eq!(src.path(), path.as_path());
+
+        let mut count = 0u64;
+        let mut last_t = f64::NEG_INFINITY;
+        let mut prev: Option<image::RgbImage> = None;
+        let mut diffs = Vec::new();
+        for frame in src.by_ref() {
+            let f = frame?;
+            assert_eq!(f.index, count);
+            assert_eq!(f.name, format!("{count:06}"));
+            assert_eq!(f.image.dimensions(), (320, 240));
+            let t = f.t.ok_or_else(|| DataError::invalid(&path, "frame without timestamp"))?;
+            assert!(t > last_t, "frame {count}: t {t} after {last_t}");
+            assert!((t - count as f64 / 25.0).abs() < 1e-6, "frame {count}: t {t}");
+            last_t = t;
+            if let Some(p) = &prev {
+                diffs.push(mean_diff(p, &f.image));
+            }
+            prev = Some(f.image);
+            count += 1;
+        }
+        assert_eq!(count, 475);
+        assert!(src.next().is_none(), "an ended source stays ended");
+        // Frames come in order: the change into frame 97 (a film cut) dwarfs the ones around it.
+        // diffs[i] is the change from frame i to frame i + 1.
+        assert!(diffs[96] > 30.0 && diffs[95] < 10.0 && diffs[97] < 10.0, "{:?}", &diffs[94..99]);
+        Ok(())
+    }
+
+    #[test]
+    fn frames_video_peer_testdata_and_open() -> Result<()> {
+        let path = shared("tools/peers/testdata/video/cuts.mp4");
+        let mut src = super::super::open(&path)?;
+        assert_eq!(src.len_hint(), Some(200));
+        let mut n = 0;
+        for f in src.by_ref() {
+            assert_eq!(f?.image.dimensions(), (320, 240));
+            n += 1;
+        }
+        assert_eq!(n, 200);
+        Ok(())
+    }
+
+    #[test]
+    fn frames_video_variable_frame_rate_timestamps() -> Result<()> {
+        // Every third frame of a 23.976 fps clip dropped: 160 frames, 1280x544, gaps of one and
+        // two frame periods. Scaled on decode to keep the test fast.
+        let path = shared("data/scenecut_pyscenedetect/goldeneye-vfr-drop3.mp4");
+        let src = VideoFile::open_scaled(&path, Some((320, 136)))?;
+        let fps = src.fps().unwrap_or(0.0);
+        assert!((15.0..17.0).contains(&fps), "average rate {fps}");
+        let mut ts = Vec::new();
+        for f in src {
+            let f = f?;
+            assert_eq!(f.image.dimensions(), (320, 136));
+            ts.push(f.t.ok_or_else(|| DataError::invalid(&path, "no timestamp"))?);
+        }
+        assert_eq!(ts.len(), 160);
+        let period = 1001.0 / 24000.0;
+        let gaps: Vec<f64> = ts.windows(2).map(|w| (w[1] - w[0]) / period).collect();
+        assert!(gaps.iter().all(|g| *g > 0.5), "timestamps must increase");
+        assert!(gaps.iter().any(|g| (g - 1.0).abs() < 0.05));
+        assert!(gaps.iter().any(|g| (g - 2.0).abs() < 0.05));
+        Ok(())
+    }
+
+    #[test]
+    fn frames_video_scaled_on_decode() -> Result<()> {
+        // 1280x720 at 29.97 fps, 720 frames; only the first frames are decoded.
+        let path = shared("data/scenecut_pyscenedetect/testvideo.mp4");
+        let full = VideoFile::open(&path)?;
+        assert_eq!(full.frame_size(), (1280, 720));
+        assert_eq!(full.len_hint(), Some(720));
+        assert!((full.fps().unwrap_or(0.0) - 30000.0 / 1001.0).abs() < 1e-9);
+        let mut small = VideoFile::open_scaled(&path, Some((160, 90)))?;
+        assert_eq!(small.frame_size(), (160, 90));
+        for i in 0..5 {
+            let f = small.next().ok_or_else(|| DataError::invalid(&path, "too few frames"))??;
+            assert_eq!((f.index, f.image.dimensions()), (i, (160, 90)));
+        }
+        let e = VideoFile::open_scaled(&path, Some((0, 90))).err().map(|e| e.to_string());
+        assert!(e.unwrap_or_default().contains("0x90"));
+        Ok(())
+    }
+
+    #[test]
+    fn frames_video_errors_name_the_file() -> Result<()> {
+        let dir = tempdir()?;
+        let missing = dir.path().join("missing.mp4");
+        let e = VideoFile::open(&missing).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("missing.mp4") && e.contains("No such file"), "{e}");
+
+        let text = dir.path().join("notes.mp4");
+        std::fs::write(&text, "this is a text file, not a video\n".repeat(20)).map_err(|e| DataError::io(&text, e))?;
+        let e = VideoFile::open(&text).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("notes.mp4") && e.contains("cannot open as a video"), "{e}");
+        let e = super::super::open(&text).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("notes.mp4"), "{e}");
+
+        // A valid audio file (WAV, 0.1 s of silence) named .mp4: FFmpeg opens it by content and
+        // finds no picture.
+        let wav = dir.path().join("sound.mp4");
+        let samples = 800u32;
+        let mut bytes = Vec::new();
+        bytes.extend_from_slice(b"RIFF");
+        bytes.extend_from_slice(&(36 + 2 * samples).to_le_bytes());
+        bytes.extend_from_slice(b"WAVEfmt ");
+        bytes.extend_from_slice(&16u32.to_le_bytes());
+        bytes.extend_from_slice(&1u16.to_le_bytes()); // PCM
+        bytes.extend_from_slice(&1u16.to_le_bytes()); // mono
+        bytes.extend_from_slice(&8000u32.to_le_bytes()); // sample rate
+        bytes.extend_from_slice(&16000u32.to_le_bytes()); // byte rate
+        bytes.extend_from_slice(&2u16.to_le_bytes()); // block align
+        bytes.extend_from_slice(&16u16.to_le_bytes()); // bits per sample
+        bytes.extend_from_slice(b"data");
+        bytes.extend_from_slice(&(2 * samples).to_le_bytes());
+        bytes.resize(bytes.len() + 2 * samples as usize, 0);
+        std::fs::write(&wav, bytes).map_err(|e| DataError::io(&wav, e))?;
+        let e = VideoFile::open(&wav).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("sound.mp4") && e.contains("no video stream"), "{e}");
+
+        let e = VideoFile::open(dir.path()).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("folder"), "{e}");
+        Ok(())
+    }
+
+    #[test]
+    fn frames_video_rows_are_copied_without_stride_padding() -> Result<()> {
+        // 5 pixels = 15 bytes a row; FFmpeg pads rows to its alignment, so stride > 15.
+        let mut frame = ff::frame::Video::new(ff::format::Pixel::RGB24, 5, 3);
+        let stride = frame.stride(0);
+        assert!(stride > 15, "stride {stride}: the test needs a padded row");
+        let data = frame.data_mut(0);
+        for y in 0..3 {
+            for i in 0..stride {
+                // Pixel bytes carry their position; padding carries 255, which must not leak.
+                data[y * stride + i] = if i < 15 { (10 * y + i) as u8 } else { 255 };
+            }
+        }
+        let img = rgb_image(&frame).ok_or_else(|| DataError::invalid("frame", "short data"))?;
+        assert_eq!(img.dimensions(), (5, 3));
+        for (x, y, p) in img.enumerate_pixels() {
+            let first = (10 * y + 3 * x) as u8;
+            assert_eq!(p.0, [first, first + 1, first + 2], "pixel {x},{y}");
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn frames_video_source_is_send() {
+        fn is_send<T: Send>() {}
+        is_send::<VideoFile>();
+        is_send::<Box<dyn FrameSource + Send>>();
+    }
+
+    /// Decode speed in frames per second; run with
+    /// `cargo test --release -p data -- --ignored frames_video_decode_speed --nocapture`.
+    #[test]
+    #[ignore = "timing, run by hand in release mode"]
+    fn frames_video_decode_speed() -> Result<()> {
+        let cases = [
+            ("data/scenecut_real/opencv_samples_cuts.mp4", None),
+            ("data/scenecut_pyscenedetect/testvideo.mp4", None),
+            ("data/scenecut_pyscenedetect/testvideo.mp4", Some((320, 180))),
+        ];
+        for (rel, size) in cases {
+            let mut best = 0.0f64;
+            let mut frames = 0;
+            for _ in 0..3 {
+                let start = std::time::Instant::now();
+                frames = 0;
+                for f in VideoFile::open_scaled(&shared(rel), size)? {
+                    std::hint::black_box(f?);
+                    frames += 1;
+                }
+                best = best.max(frames as f64 / start.elapsed().as_secs_f64());
+            }
+            println!("decode speed {rel} scaled {size:?}: {frames} frames, {best:.0} frames/s (best of 3)");
+        }
+        Ok(())
+    }
+}
