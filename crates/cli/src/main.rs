@@ -22,12 +22,15 @@ struct Cli {
 enum Command {
     /// Compare estimated poses with ground truth: error statistics, accuracy, plots.
     Eval(cmd::eval::EvalArgs),
+    /// Speed figures of each stage, beside the reference peer where one is installed.
+    Bench(cmd::bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Eval(args) => cmd::eval::run(&args),
+        Command::Bench(args) => cmd::bench::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -2,6 +2,7 @@
 //! writes (temporary file in the same folder, then rename) so a crash never leaves half a file.
 
 use crate::error::{DataError, Result};
+use crate::trajectory::PoseFrame;
 use std::io::Write;
 use std::path::Path;
 
@@ -63,6 +64,47 @@ pub fn parse_numbers(path: &Path, line_no: usize, fields: &[&str]) -> Result<Vec
             }
         })
         .collect()
+}
+
+/// The shortest text that parses back to the same `f64` (Rust's `{}`, or `{:e}` for very large
+/// and very small magnitudes, where `{}` would print hundreds of digits).
+pub fn fmt_f64(v: f64) -> String {
+    let a = v.abs();
+    if a != 0.0 && !(1e-5..1e16).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// Refuses to write a frame holding NaN or infinity: the file could not be read back.
+pub fn require_finite(path: &Path, frame: &PoseFrame) -> Result<()> {
+    let q = frame.pose.rotation.coords;
+    let finite = frame.pose.translation.iter().all(|v| v.is_finite())
+        && q.iter().all(|v| v.is_finite())
+        && frame.t.is_none_or(f64::is_finite);
+    if finite {
+        Ok(())
+    } else {
+        Err(DataError::invalid(
+            path,
+            format!("frame '{}' holds a non-finite value", frame.name),
+        ))
+    }
+}
+
+/// Parses exactly `N` numeric fields of a line; `count_msg` describes a wrong field count.
+pub fn fixed_numbers<const N: usize>(
+    path: &Path,
+    line_no: usize,
+    fields: &[&str],
+    count_msg: impl FnOnce() -> String,
+) -> Result<[f64; N]> {
+    if fields.len() != N {
+        return Err(DataError::parse(path, line_no, count_msg()));
+    }
+    let v = parse_numbers(path, line_no, fields)?;
+    <[f64; N]>::try_from(v).map_err(|_| DataError::parse(path, line_no, count_msg()))
 }
 
 #[cfg(test)]

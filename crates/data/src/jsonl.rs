@@ -9,7 +9,6 @@ use crate::io::{read_text, write_atomic};
 use crate::trajectory::{PoseFrame, Trajectory};
 use geom::Pose;
 use serde::{Deserialize, Serialize};
-use std::io::Write;
 use std::path::Path;
 
 /// The fields of one line that carry a pose.

@@ -10,9 +10,14 @@
 
 pub mod cambridge;
 pub mod colmap;
+mod csv_table;
+pub mod cuts;
 mod error;
+pub mod formats;
 pub mod frames;
 pub mod io;
+pub mod jsonl;
+pub mod matching;
 pub mod native;
 pub mod nerf;
 pub mod robotlog;

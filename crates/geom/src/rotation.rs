@@ -16,13 +16,14 @@ pub const QUAT_NORM_TOL: f64 = 1e-2;
 /// blocks that are orthonormal only to about 1e-4); within it the matrix is projected onto SO(3).
 pub const ROTATION_ORTHO_TOL: f64 = 1e-2;
 
-/// A unit quaternion from Hamilton components stored `w, x, y, z`.
+/// A unit quaternion from Hamilton components stored `w, x, y, z`, on the `w ≥ 0` hemisphere.
 pub fn quat_from_wxyz(q: [f64; 4]) -> Result<UnitQuaternion<f64>> {
     let [w, x, y, z] = q;
     unit_quaternion(Quaternion::new(w, x, y, z))
 }
 
-/// A unit quaternion from Hamilton components stored `x, y, z, w` (TUM, ROS, scipy).
+/// A unit quaternion from Hamilton components stored `x, y, z, w` (TUM, ROS, scipy), on the
+/// `w ≥ 0` hemisphere.
 pub fn quat_from_xyzw(q: [f64; 4]) -> Result<UnitQuaternion<f64>> {
     let [x, y, z, w] = q;
     unit_quaternion(Quaternion::new(w, x, y, z))
@@ -39,8 +40,19 @@ fn unit_quaternion(q: Quaternion<f64>) -> Result<UnitQuaternion<f64>> {
             tol: QUAT_NORM_TOL,
         });
     }
-    Ok(UnitQuaternion::new_normalize(q))
+    // A quaternion printed with all its digits from a unit one is as unit as normalisation can
+    // make it; normalising again would move its last bits and break exact write → read round
+    // trips, so it is kept as written.
+    let unit = if (norm - 1.0).abs() <= AS_WRITTEN_TOL {
+        UnitQuaternion::new_unchecked(q)
+    } else {
+        UnitQuaternion::new_normalize(q)
+    };
+    Ok(canonical(&unit))
 }
+
+/// Largest `|‖q‖ − 1|` at which a quaternion is taken as written, without normalising.
+const AS_WRITTEN_TOL: f64 = 8.0 * f64::EPSILON;
 
 /// Components `w, x, y, z` on the `w ≥ 0` hemisphere (the stored form of DESIGN.md).
 pub fn quat_to_wxyz(q: &UnitQuaternion<f64>) -> [f64; 4] {

@@ -69,7 +69,7 @@ pub(crate) fn envelope(values: &[f64]) -> Vec<Vec<(f64, f64)>> {
     let n = values.len();
     let mut segments = Vec::new();
     let mut current: Vec<(f64, f64)> = Vec::new();
-    let mut flush = |current: &mut Vec<(f64, f64)>, segments: &mut Vec<Vec<(f64, f64)>>| {
+    let flush = |current: &mut Vec<(f64, f64)>, segments: &mut Vec<Vec<(f64, f64)>>| {
         if !current.is_empty() {
             segments.push(std::mem::take(current));
         }
@@ -116,6 +116,38 @@ pub(crate) fn envelope(values: &[f64]) -> Vec<Vec<(f64, f64)>> {
     segments
 }
 
+/// The median of each of [`MAX_TIME_BUCKETS`] frame buckets, at the bucket's middle frame, when
+/// the series is long enough for [`envelope`] to decimate it (`None` otherwise). Buckets without a
+/// finite value break the line.
+pub(crate) fn bucket_medians(values: &[f64]) -> Option<Vec<Vec<(f64, f64)>>> {
+    let n = values.len();
+    if n <= 2 * MAX_TIME_BUCKETS {
+        return None;
+    }
+    let b = MAX_TIME_BUCKETS;
+    let mut segments = Vec::new();
+    let mut current = Vec::new();
+    let mut scratch = Vec::with_capacity(n / b + 1);
+    for k in 0..b {
+        let (lo, hi) = (k * n / b, (k + 1) * n / b);
+        scratch.clear();
+        scratch.extend(values[lo..hi].iter().copied().filter(|v| v.is_finite()));
+        if scratch.is_empty() {
+            if !current.is_empty() {
+                segments.push(std::mem::take(&mut current));
+            }
+            continue;
+        }
+        let mid = scratch.len() / 2;
+        let median = *scratch.select_nth_unstable_by(mid, f64::total_cmp).1;
+        current.push(((lo + hi - 1) as f64 / 2.0, median));
+    }
+    if !current.is_empty() {
+        segments.push(current);
+    }
+    Some(segments)
+}
+
 /// Indices `0, s, 2s, …` and the last one, with the stride `s` chosen so that at most about
 /// `max` indices come out.
 pub(crate) fn stride_indices(n: usize, max: usize) -> impl Iterator<Item = usize> {
@@ -143,6 +175,86 @@ pub(crate) fn track_segments(points: &[[f64; 2]]) -> Vec<Vec<(f64, f64)>> {
         segments.push(current);
     }
     segments
+}
+
+/// The part of segment `a → b` inside `rect` = `[x0, x1, y0, y1]` (Liang–Barsky).
+fn clip_segment(a: (f64, f64), b: (f64, f64), rect: [f64; 4]) -> Option<((f64, f64), (f64, f64))> {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for (p, q) in [
+        (-dx, a.0 - rect[0]),
+        (dx, rect[1] - a.0),
+        (-dy, a.1 - rect[2]),
+        (dy, rect[3] - a.1),
+    ] {
+        if p == 0.0 {
+            if q < 0.0 {
+                return None;
+            }
+        } else {
+            let t = q / p;
+            if p < 0.0 {
+                t0 = t0.max(t);
+            } else {
+                t1 = t1.min(t);
+            }
+        }
+    }
+    (t0 <= t1).then(|| {
+        (
+            (a.0 + t0 * dx, a.1 + t0 * dy),
+            (a.0 + t1 * dx, a.1 + t1 * dy),
+        )
+    })
+}
+
+/// The pieces of a polyline inside `rect` = `[x0, x1, y0, y1]` (plotters does not clip lines
+/// to the plotting area, so everything that may leave it is clipped here).
+pub(crate) fn clip_polyline(points: &[(f64, f64)], rect: [f64; 4]) -> Vec<Vec<(f64, f64)>> {
+    let inside = |p: &(f64, f64)| p.0 >= rect[0] && p.0 <= rect[1] && p.1 >= rect[2] && p.1 <= rect[3];
+    if points.len() == 1 {
+        return if inside(&points[0]) { vec![points.to_vec()] } else { Vec::new() };
+    }
+    let mut pieces = Vec::new();
+    let mut current: Vec<(f64, f64)> = Vec::new();
+    for w in points.windows(2) {
+        match clip_segment(w[0], w[1], rect) {
+            Some((a, b)) => {
+                if current.last() != Some(&a) {
+                    if current.len() > 1 {
+                        pieces.push(std::mem::take(&mut current));
+                    }
+                    current.clear();
+                    current.push(a);
+                }
+                current.push(b);
+            }
+            None => {
+                if current.len() > 1 {
+                    pieces.push(std::mem::take(&mut current));
+                }
+                current.clear();
+            }
+        }
+    }
+    if current.len() > 1 {
+        pieces.push(current);
+    }
+    pieces
+}
+
+/// Low and high quantiles (fractions 0–1) of the finite values, `None` when there are none.
+pub(crate) fn quantile_range(values: impl Iterator<Item = f64>, lo: f64, hi: f64) -> Option<(f64, f64)> {
+    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    let n = v.len();
+    let rank = |q: f64| ((q.clamp(0.0, 1.0) * (n - 1) as f64).round() as usize).min(n - 1);
+    let (rl, rh) = (rank(lo), rank(hi));
+    let low = *v.select_nth_unstable_by(rl, f64::total_cmp).1;
+    let high = *v.select_nth_unstable_by(rh, f64::total_cmp).1;
+    Some((low, high))
 }
 
 #[cfg(test)]
@@ -183,6 +295,38 @@ mod tests {
         assert!(pts <= 2 * MAX_TIME_BUCKETS);
         assert!(segs[0].contains(&(54_321.0, 9.0)));
         assert_eq!(envelope(&[1.0, f64::NAN, 2.0]).len(), 2);
+    }
+
+    #[test]
+    fn polylines_are_clipped_to_the_rectangle() {
+        let rect = [0.0, 10.0, 0.0, 10.0];
+        let pts = [(5.0, 5.0), (15.0, 5.0), (15.0, 6.0), (5.0, 6.0), (6.0, 7.0)];
+        let pieces = clip_polyline(&pts, rect);
+        assert_eq!(
+            pieces,
+            vec![vec![(5.0, 5.0), (10.0, 5.0)], vec![(10.0, 6.0), (5.0, 6.0), (6.0, 7.0)]]
+        );
+        assert!(clip_polyline(&[(20.0, 20.0), (30.0, 30.0)], rect).is_empty());
+        assert_eq!(clip_polyline(&[(1.0, 1.0)], rect).len(), 1);
+        assert!(clip_polyline(&[(11.0, 1.0)], rect).is_empty());
+    }
+
+    #[test]
+    fn quantiles_ignore_nan() {
+        let v = [3.0, f64::NAN, 1.0, 2.0, 100.0];
+        assert_eq!(quantile_range(v.into_iter(), 0.0, 1.0), Some((1.0, 100.0)));
+        assert_eq!(quantile_range(v.into_iter(), 0.0, 0.6), Some((1.0, 3.0)));
+        assert_eq!(quantile_range([f64::NAN].into_iter(), 0.0, 1.0), None);
+    }
+
+    #[test]
+    fn medians_only_for_long_series() {
+        assert!(bucket_medians(&[1.0; 100]).is_none());
+        let v: Vec<f64> = (0..10_000).map(|i| if i % 10 == 0 { 50.0 } else { 1.0 }).collect();
+        let m = bucket_medians(&v).unwrap_or_default();
+        assert_eq!(m.len(), 1);
+        assert_eq!(m[0].len(), MAX_TIME_BUCKETS);
+        assert!(m[0].iter().all(|&(_, y)| y == 1.0));
     }
 
     #[test]

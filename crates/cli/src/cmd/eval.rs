@@ -51,10 +51,13 @@ pub struct EvalArgs {
 
 /// The `--json` document.
 #[derive(Debug, Serialize)]
-struct EvalOutput {
-    frames: usize,
-    median_pos_m: f64,
-    median_rot_deg: f64,
+pub struct EvalOutput {
+    /// Matched frames.
+    pub frames: usize,
+    /// Median position error, metres.
+    pub median_pos_m: f64,
+    /// Median rotation error, degrees.
+    pub median_rot_deg: f64,
     mean_pos_m: f64,
     mean_rot_deg: f64,
     rmse_pos_m: f64,
@@ -95,8 +98,42 @@ struct Subset {
     acc_5m_10deg: Option<f64>,
 }
 
+impl EvalArgs {
+    /// Arguments for comparing two files with default options (used by `bench`).
+    pub fn new(gt: PathBuf, est: PathBuf) -> Self {
+        Self {
+            gt,
+            est,
+            gt_format: None,
+            est_format: None,
+            max_dt: 0.01,
+            cuts: None,
+            cut_window: 10,
+            report: None,
+            per_frame: None,
+            json: true,
+        }
+    }
+
+    /// Also write the HTML report into `dir`.
+    pub fn with_report(mut self, dir: PathBuf) -> Self {
+        self.report = Some(dir);
+        self
+    }
+}
+
 /// Runs `indoorloc eval`.
 pub fn run(args: &EvalArgs) -> Result<()> {
+    let out = evaluate(args)?;
+    if args.json {
+        print_json(&out)
+    } else {
+        print_text(&human_table(&out))
+    }
+}
+
+/// Reads, pairs and compares the poses, writes the optional outputs, and returns the figures.
+pub fn evaluate(args: &EvalArgs) -> Result<EvalOutput> {
     let start = Instant::now();
     let (gt_format, gt) = read_poses(&args.gt, args.gt_format)?;
     let (est_format, est) = read_poses(&args.est, args.est_format)?;
@@ -159,11 +196,7 @@ pub fn run(args: &EvalArgs) -> Result<()> {
         out.away_from_cuts = Some(away);
     }
     out.seconds = start.elapsed().as_secs_f64();
-    if args.json {
-        print_json(&out)
-    } else {
-        print_text(&human_table(&out))
-    }
+    Ok(out)
 }
 
 fn write_per_frame(

@@ -69,7 +69,9 @@ impl ImageFolder {
 }
 
 fn file_name(path: &Path) -> String {
-    path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default()
 }
 
 /// Decodes one image file to RGB. The format comes from the file's content, not its extension,
@@ -144,7 +146,11 @@ pub fn natural_cmp(a: &str, b: &str) -> Ordering {
         let (Some(cx), Some(cy)) = (x.chars().next(), y.chars().next()) else {
             // One name is a prefix of the other (shorter first), or they are equal up to case and
             // leading zeros: then the plain order decides.
-            return x.is_empty().cmp(&y.is_empty()).reverse().then_with(|| a.cmp(b));
+            return x
+                .is_empty()
+                .cmp(&y.is_empty())
+                .reverse()
+                .then_with(|| a.cmp(b));
         };
         if cx.is_ascii_digit() && cy.is_ascii_digit() {
             let (nx, rx) = split_digits(x);
@@ -194,15 +200,33 @@ mod tests {
     #[test]
     fn frames_natural_order() {
         let mut names = vec![
-            "f10.png", "f2.png", "f1.png", "F3.png", "f02.png", "a.png", "a1.png", "img_010.png",
-            "img_9.png", "x99999999999999999999999.png", "x100000000000000000000000.png",
+            "f10.png",
+            "f2.png",
+            "f1.png",
+            "F3.png",
+            "f02.png",
+            "a.png",
+            "a1.png",
+            "img_010.png",
+            "img_9.png",
+            "x99999999999999999999999.png",
+            "x100000000000000000000000.png",
         ];
         names.sort_by(|a, b| natural_cmp(a, b));
         assert_eq!(
             names,
             [
-                "a.png", "a1.png", "f1.png", "f02.png", "f2.png", "F3.png", "f10.png", "img_9.png",
-                "img_010.png", "x99999999999999999999999.png", "x100000000000000000000000.png",
+                "a.png",
+                "a1.png",
+                "f1.png",
+                "f02.png",
+                "f2.png",
+                "F3.png",
+                "f10.png",
+                "img_9.png",
+                "img_010.png",
+                "x99999999999999999999999.png",
+                "x100000000000000000000000.png",
             ]
         );
         assert_eq!(natural_cmp("frame2", "frame10"), Ordering::Less);
@@ -218,7 +242,8 @@ mod tests {
         }
         std::fs::write(dir.path().join("notes.txt"), "not an image")
             .map_err(|e| DataError::io(dir.path(), e))?;
-        std::fs::create_dir(dir.path().join("sub.png")).map_err(|e| DataError::io(dir.path(), e))?;
+        std::fs::create_dir(dir.path().join("sub.png"))
+            .map_err(|e| DataError::io(dir.path(), e))?;
 
         let mut src = ImageFolder::open(dir.path())?;
         assert_eq!(src.len_hint(), Some(3));
@@ -247,10 +272,13 @@ mod tests {
         let dir = tempdir()?;
         write_png(&dir.path().join("a1.png"), 2, 2, 0)?;
         // Corrupt, but never decoded: `nth` jumps over it.
-        std::fs::write(dir.path().join("a2.png"), b"junk").map_err(|e| DataError::io(dir.path(), e))?;
+        std::fs::write(dir.path().join("a2.png"), b"junk")
+            .map_err(|e| DataError::io(dir.path(), e))?;
         write_png(&dir.path().join("a3.png"), 2, 2, 0)?;
         let mut src = ImageFolder::open(dir.path())?;
-        let f = src.nth(2).ok_or_else(|| DataError::invalid(dir.path(), "no frame"))??;
+        let f = src
+            .nth(2)
+            .ok_or_else(|| DataError::invalid(dir.path(), "no frame"))??;
         assert_eq!((f.index, f.name.as_str()), (2, "a3"));
         assert!(src.nth(5).is_none());
         Ok(())
@@ -259,10 +287,19 @@ mod tests {
     #[test]
     fn frames_empty_folder_is_an_error_naming_it() -> Result<()> {
         let dir = tempdir()?;
-        std::fs::write(dir.path().join("readme.md"), "x").map_err(|e| DataError::io(dir.path(), e))?;
-        let e = ImageFolder::open(dir.path()).err().map(|e| e.to_string()).unwrap_or_default();
-        assert!(e.contains(&dir.path().display().to_string()) && e.contains("no images"), "{e}");
-        let e = ImageFolder::open(&dir.path().join("absent")).err().map(|e| e.to_string());
+        std::fs::write(dir.path().join("readme.md"), "x")
+            .map_err(|e| DataError::io(dir.path(), e))?;
+        let e = ImageFolder::open(dir.path())
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(
+            e.contains(&dir.path().display().to_string()) && e.contains("no images"),
+            "{e}"
+        );
+        let e = ImageFolder::open(&dir.path().join("absent"))
+            .err()
+            .map(|e| e.to_string());
         assert!(e.unwrap_or_default().contains("absent"));
         Ok(())
     }
@@ -270,15 +307,25 @@ mod tests {
     #[test]
     fn frames_corrupt_image_names_the_file_and_iteration_goes_on() -> Result<()> {
         let dir = tempdir()?;
-        std::fs::write(dir.path().join("bad.png"), b"\x89PNG\r\n\x1a\nthis is not a png")
-            .map_err(|e| DataError::io(dir.path(), e))?;
+        std::fs::write(
+            dir.path().join("bad.png"),
+            b"\x89PNG\r\n\x1a\nthis is not a png",
+        )
+        .map_err(|e| DataError::io(dir.path(), e))?;
         write_png(&dir.path().join("f1.png"), 3, 2, 7)?;
         let mut src = ImageFolder::open(dir.path())?;
-        let first = src.next().ok_or_else(|| DataError::invalid(dir.path(), "no item"))?;
+        let first = src
+            .next()
+            .ok_or_else(|| DataError::invalid(dir.path(), "no item"))?;
         let e = first.err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("bad.png") && e.contains("cannot decode"), "{e}");
-        let f = src.next().ok_or_else(|| DataError::invalid(dir.path(), "no item"))??;
-        assert_eq!((f.index, f.name.as_str(), f.image.dimensions()), (1, "f1", (3, 2)));
+        let f = src
+            .next()
+            .ok_or_else(|| DataError::invalid(dir.path(), "no item"))??;
+        assert_eq!(
+            (f.index, f.name.as_str(), f.image.dimensions()),
+            (1, "f1", (3, 2))
+        );
         assert!(src.next().is_none());
         Ok(())
     }
@@ -293,13 +340,16 @@ mod tests {
         assert_eq!(src.len_hint(), Some(50));
         // Two frames only: a 1080x1920 JPEG takes a while to decode in a debug build.
         for (i, name) in [(0, "0001"), (1, "0002")] {
-            let f = src.next().ok_or_else(|| DataError::invalid(dir, "too few frames"))??;
+            let f = src
+                .next()
+                .ok_or_else(|| DataError::invalid(dir, "too few frames"))??;
             assert_eq!((f.index, f.name.as_str()), (i, name));
             assert_eq!(f.image.dimensions(), (1080, 1920));
             // A real photo, not a blank: its pixels vary.
-            let (lo, hi) = f.image.pixels().fold((255u8, 0u8), |(lo, hi), p| {
-                (lo.min(p[1]), hi.max(p[1]))
-            });
+            let (lo, hi) = f
+                .image
+                .pixels()
+                .fold((255u8, 0u8), |(lo, hi), p| (lo.min(p[1]), hi.max(p[1])));
             assert!(hi - lo > 100, "green channel spans only {lo}..{hi}");
         }
         Ok(())

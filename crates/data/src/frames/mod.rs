@@ -100,7 +100,10 @@ pub fn open(path: &Path) -> Result<Box<dyn FrameSource + Send>> {
         return open_video(path);
     }
     if has_extension(path, IMAGE_EXTENSIONS) {
-        return Ok(Box::new(ImageFolder::from_files(path, vec![path.to_path_buf()])?));
+        return Ok(Box::new(ImageFolder::from_files(
+            path,
+            vec![path.to_path_buf()],
+        )?));
     }
     Err(DataError::Frames {
         path: path.to_path_buf(),
@@ -121,9 +124,10 @@ fn open_video(path: &Path) -> Result<Box<dyn FrameSource + Send>> {
 fn open_video(path: &Path) -> Result<Box<dyn FrameSource + Send>> {
     Err(DataError::Frames {
         path: path.to_path_buf(),
-        msg: "this binary was built without video support (cargo feature `video` of crate `data`); \
+        msg:
+            "this binary was built without video support (cargo feature `video` of crate `data`); \
               extract the frames to an image folder, or rebuild with the feature"
-            .into(),
+                .into(),
     })
 }
 
@@ -135,13 +139,19 @@ mod tests {
     fn frames_open_dispatches_and_names_the_path() -> Result<()> {
         let dir = tempfile::tempdir().map_err(|e| DataError::io("tmp", e))?;
         let missing = dir.path().join("nothing-here.mp4");
-        let e = open(&missing).err().map(|e| e.to_string()).unwrap_or_default();
+        let e = open(&missing)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
         assert!(e.contains("nothing-here.mp4"), "{e}");
 
         let txt = dir.path().join("notes.txt");
         std::fs::write(&txt, "hello").map_err(|e| DataError::io(&txt, e))?;
         let e = open(&txt).err().map(|e| e.to_string()).unwrap_or_default();
-        assert!(e.contains("notes.txt") && e.contains("not a frame source"), "{e}");
+        assert!(
+            e.contains("notes.txt") && e.contains("not a frame source"),
+            "{e}"
+        );
 
         let png = dir.path().join("one.PNG");
         image::RgbImage::new(4, 3)
@@ -149,7 +159,9 @@ mod tests {
             .map_err(|e| DataError::invalid(&png, e.to_string()))?;
         let mut src = open(&png)?;
         assert_eq!(src.len_hint(), Some(1));
-        let f = src.next().ok_or_else(|| DataError::invalid(&png, "no frame"))??;
+        let f = src
+            .next()
+            .ok_or_else(|| DataError::invalid(&png, "no frame"))??;
         assert_eq!((f.name.as_str(), f.image.dimensions()), ("one", (4, 3)));
         assert!(src.next().is_none());
 
@@ -174,7 +186,10 @@ mod tests {
         let p = dir.path().join("clip.mp4");
         std::fs::write(&p, b"x").map_err(|e| DataError::io(&p, e))?;
         let e = open(&p).err().map(|e| e.to_string()).unwrap_or_default();
-        assert!(e.contains("clip.mp4") && e.contains("without video support"), "{e}");
+        assert!(
+            e.contains("clip.mp4") && e.contains("without video support"),
+            "{e}"
+        );
         Ok(())
     }
 }

@@ -9,19 +9,24 @@ use ffmpeg_next as ff;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-/// Gives up on a video after this many errors in a row without a decoded frame: every error
-/// consumes input, so this never triggers on a damaged but finite file; it guards against a
-/// decoder that keeps failing without making progress.
+/// Gives up on a video after this many errors in a row without a decoded frame. Every error
+/// consumes input, so a damaged file ends anyway; this guards against a decoder that keeps failing
+/// without making progress, and spares the caller a flood of errors from a file that is garbage
+/// past some point.
 const MAX_CONSECUTIVE_ERRORS: u32 = 1000;
 
-/// Initialises FFmpeg once per process. Also lowers FFmpeg's log level to errors only: its
-/// warnings (deprecated pixel formats, stream probing notes) would otherwise flood stderr, which
-/// carries the command line's progress and messages.
+/// Most decoder threads per video (see [`VideoFile::open_scaled`]).
+const MAX_DECODE_THREADS: usize = 4;
+
+/// Initialises FFmpeg once per process. Also silences FFmpeg's own log below fatal errors: its
+/// warnings and error lines (`moov atom not found`, ...) would otherwise flood stderr, which
+/// carries the command line's progress and its promised one-line errors; what went wrong reaches
+/// the user through our error, which names the file.
 fn init() -> std::result::Result<(), String> {
     static INIT: OnceLock<std::result::Result<(), String>> = OnceLock::new();
     INIT.get_or_init(|| {
         ff::init().map_err(|e| format!("cannot initialise FFmpeg: {e}"))?;
-        ff::util::log::set_level(ff::util::log::Level::Error);
+        ff::util::log::set_level(ff::util::log::Level::Fatal);
         Ok(())
     })
     .clone()
@@ -30,7 +35,8 @@ fn init() -> std::result::Result<(), String> {
 /// A rational as `f64`, or `None` where it is zero, negative or undefined (FFmpeg uses 0/0 for
 /// "unknown").
 fn positive(r: ff::Rational) -> Option<f64> {
-    (r.numerator() > 0 && r.denominator() > 0).then(|| f64::from(r.numerator()) / f64::from(r.denominator()))
+    (r.numerator() > 0 && r.denominator() > 0)
+        .then(|| f64::from(r.numerator()) / f64::from(r.denominator()))
 }
 
 /// The swscale context and the input it was made for.
@@ -146,19 +152,26 @@ impl VideoFile {
 
         let mut ctx = ff::codec::context::Context::from_parameters(stream.parameters())
             .map_err(|e| err(format!("cannot read the video stream's parameters: {e}")))?;
-        // Frame threading with FFmpeg's automatic thread count: decoding is the costly part of
-        // reading a video; it adds a few frames of latency, which a file source does not mind.
+        // Frame threading: decoding is the costly part of reading a video, and it only adds a few
+        // frames of latency, which a file source does not mind. Each thread holds a frame in
+        // flight, so the count is capped (FFmpeg's automatic count goes up to 16) to keep memory
+        // small and leave cores to the stages that consume the frames.
+        let threads =
+            std::thread::available_parallelism().map_or(1, |n| n.get().min(MAX_DECODE_THREADS));
         ctx.set_threading(ff::codec::threading::Config {
             kind: ff::codec::threading::Type::Frame,
-            count: 0,
+            count: threads,
             ..Default::default()
         });
         let mut decoder = ctx.decoder();
         // Timestamps of decoded frames are then in the stream's time base, as the packets'.
         decoder.set_packet_time_base(stream.time_base());
-        let decoder = decoder
-            .video()
-            .map_err(|e| err(format!("cannot decode the video stream ({:?}): {e}", stream.parameters().id())))?;
+        let decoder = decoder.video().map_err(|e| {
+            err(format!(
+                "cannot decode the video stream ({:?}): {e}",
+                stream.parameters().id()
+            ))
+        })?;
 
         Ok(Self {
             path: path.to_path_buf(),
@@ -198,7 +211,9 @@ impl VideoFile {
         self.errors_in_a_row += 1;
         if self.errors_in_a_row >= MAX_CONSECUTIVE_ERRORS {
             self.state = State::Done;
-            return Some(Err(self.error(format!("{msg}; giving up after {MAX_CONSECUTIVE_ERRORS} errors in a row"))));
+            return Some(Err(self.error(format!(
+                "{msg}; giving up after {MAX_CONSECUTIVE_ERRORS} errors in a row"
+            ))));
         }
         Some(Err(self.error(msg)))
     }
@@ -227,7 +242,9 @@ impl VideoFile {
                 Err(e) if e == again => {}
                 Err(e) => {
                     let index = self.next_index;
-                    return self.failed(format!("cannot decode the frame after frame {index}: {e}"));
+                    return self.failed(format!(
+                        "cannot decode a frame (next frame index {index}): {e}"
+                    ));
                 }
             }
             if self.state == State::Draining {
@@ -279,8 +296,16 @@ impl VideoFile {
             .zip(self.time_base)
             .map(|(ts, tb)| ts as f64 * tb);
 
-        let (format, w, h) = (self.decoded.format(), self.decoded.width(), self.decoded.height());
-        if self.scaler.as_ref().is_none_or(|s| s.input != (format, w, h)) {
+        let (format, w, h) = (
+            self.decoded.format(),
+            self.decoded.width(),
+            self.decoded.height(),
+        );
+        if self
+            .scaler
+            .as_ref()
+            .is_none_or(|s| s.input != (format, w, h))
+        {
             // First frame, or the stream changed size or pixel format mid-way (legal in MPEG-TS,
             // WebM): build a converter for what actually arrives rather than what the header said.
             let (ow, oh) = self.target.unwrap_or((w, h));
@@ -289,8 +314,20 @@ impl VideoFile {
             } else {
                 ff::software::scaling::Flags::BILINEAR
             };
-            let ctx = ff::software::scaling::Context::get(format, w, h, ff::format::Pixel::RGB24, ow, oh, flags)
-                .map_err(|e| self.error(format!("frame {index}: cannot convert {format:?} {w}x{h} to RGB: {e}")))?;
+            let ctx = ff::software::scaling::Context::get(
+                format,
+                w,
+                h,
+                ff::format::Pixel::RGB24,
+                ow,
+                oh,
+                flags,
+            )
+            .map_err(|e| {
+                self.error(format!(
+                    "frame {index}: cannot convert {format:?} {w}x{h} to RGB: {e}"
+                ))
+            })?;
             self.scaler = Some(Scaler {
                 ctx,
                 input: (format, w, h),
@@ -298,17 +335,15 @@ impl VideoFile {
             // The output buffer is reallocated by the scaler for the new size.
             self.rgb = ff::frame::Video::empty();
         }
-        let scaler = self
-            .scaler
-            .as_mut()
-            .ok_or_else(|| DataError::Frames {
-                path: self.path.clone(),
-                msg: format!("frame {index}: no RGB converter"),
-            })?;
+        let scaler = self.scaler.as_mut().ok_or_else(|| DataError::Frames {
+            path: self.path.clone(),
+            msg: format!("frame {index}: no RGB converter"),
+        })?;
         if let Err(e) = scaler.ctx.run(&self.decoded, &mut self.rgb) {
             return Err(self.error(format!("frame {index}: cannot convert to RGB: {e}")));
         }
-        let image = rgb_image(&self.rgb).ok_or_else(|| self.error(format!("frame {index}: RGB frame smaller than its size")))?;
+        let image = rgb_image(&self.rgb)
+            .ok_or_else(|| self.error(format!("frame {index}: RGB frame smaller than its size")))?;
         Ok(Frame {
             index,
             name: format!("{index:06}"),
@@ -404,7 +439,11 @@ mod tests {
         let path = shared("data/scenecut_real/opencv_samples_cuts.mp4");
         let mut src = VideoFile::open(&path)?;
         assert_eq!(src.len_hint(), Some(475));
-        assert!((src.fps().unwrap_or(0.0) - 25.0).abs() < 1e-9, "{:?}", src.fps());
+        assert!(
+            (src.fps().unwrap_or(0.0) - 25.0).abs() < 1e-9,
+            "{:?}",
+            src.fps()
+        );
         assert_eq!(src.frame_size(), (320, 240));
         assert_eq!(src.path(), path.as_path());
 
@@ -417,9 +456,13 @@ mod tests {
             assert_eq!(f.index, count);
             assert_eq!(f.name, format!("{count:06}"));
             assert_eq!(f.image.dimensions(), (320, 240));
-            let t = f.t.ok_or_else(|| DataError::invalid(&path, "frame without timestamp"))?;
+            let t =
+                f.t.ok_or_else(|| DataError::invalid(&path, "frame without timestamp"))?;
             assert!(t > last_t, "frame {count}: t {t} after {last_t}");
-            assert!((t - count as f64 / 25.0).abs() < 1e-6, "frame {count}: t {t}");
+            assert!(
+                (t - count as f64 / 25.0).abs() < 1e-6,
+                "frame {count}: t {t}"
+            );
             last_t = t;
             if let Some(p) = &prev {
                 diffs.push(mean_diff(p, &f.image));
@@ -431,7 +474,11 @@ mod tests {
         assert!(src.next().is_none(), "an ended source stays ended");
         // Frames come in order: the change into frame 97 (a film cut) dwarfs the ones around it.
         // diffs[i] is the change from frame i to frame i + 1.
-        assert!(diffs[96] > 30.0 && diffs[95] < 10.0 && diffs[97] < 10.0, "{:?}", &diffs[94..99]);
+        assert!(
+            diffs[96] > 30.0 && diffs[95] < 10.0 && diffs[97] < 10.0,
+            "{:?}",
+            &diffs[94..99]
+        );
         Ok(())
     }
 
@@ -483,10 +530,14 @@ mod tests {
         let mut small = VideoFile::open_scaled(&path, Some((160, 90)))?;
         assert_eq!(small.frame_size(), (160, 90));
         for i in 0..5 {
-            let f = small.next().ok_or_else(|| DataError::invalid(&path, "too few frames"))??;
+            let f = small
+                .next()
+                .ok_or_else(|| DataError::invalid(&path, "too few frames"))??;
             assert_eq!((f.index, f.image.dimensions()), (i, (160, 90)));
         }
-        let e = VideoFile::open_scaled(&path, Some((0, 90))).err().map(|e| e.to_string());
+        let e = VideoFile::open_scaled(&path, Some((0, 90)))
+            .err()
+            .map(|e| e.to_string());
         assert!(e.unwrap_or_default().contains("0x90"));
         Ok(())
     }
@@ -495,14 +546,30 @@ mod tests {
     fn frames_video_errors_name_the_file() -> Result<()> {
         let dir = tempdir()?;
         let missing = dir.path().join("missing.mp4");
-        let e = VideoFile::open(&missing).err().map(|e| e.to_string()).unwrap_or_default();
-        assert!(e.contains("missing.mp4") && e.contains("No such file"), "{e}");
+        let e = VideoFile::open(&missing)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(
+            e.contains("missing.mp4") && e.contains("No such file"),
+            "{e}"
+        );
 
         let text = dir.path().join("notes.mp4");
-        std::fs::write(&text, "this is a text file, not a video\n".repeat(20)).map_err(|e| DataError::io(&text, e))?;
-        let e = VideoFile::open(&text).err().map(|e| e.to_string()).unwrap_or_default();
-        assert!(e.contains("notes.mp4") && e.contains("cannot open as a video"), "{e}");
-        let e = super::super::open(&text).err().map(|e| e.to_string()).unwrap_or_default();
+        std::fs::write(&text, "this is a text file, not a video\n".repeat(20))
+            .map_err(|e| DataError::io(&text, e))?;
+        let e = VideoFile::open(&text)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(
+            e.contains("notes.mp4") && e.contains("cannot open as a video"),
+            "{e}"
+        );
+        let e = super::super::open(&text)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
         assert!(e.contains("notes.mp4"), "{e}");
 
         // A valid audio file (WAV, 0.1 s of silence) named .mp4: FFmpeg opens it by content and
@@ -524,10 +591,19 @@ mod tests {
         bytes.extend_from_slice(&(2 * samples).to_le_bytes());
         bytes.resize(bytes.len() + 2 * samples as usize, 0);
         std::fs::write(&wav, bytes).map_err(|e| DataError::io(&wav, e))?;
-        let e = VideoFile::open(&wav).err().map(|e| e.to_string()).unwrap_or_default();
-        assert!(e.contains("sound.mp4") && e.contains("no video stream"), "{e}");
+        let e = VideoFile::open(&wav)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(
+            e.contains("sound.mp4") && e.contains("no video stream"),
+            "{e}"
+        );
 
-        let e = VideoFile::open(dir.path()).err().map(|e| e.to_string()).unwrap_or_default();
+        let e = VideoFile::open(dir.path())
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
         assert!(e.contains("folder"), "{e}");
         Ok(())
     }
@@ -569,7 +645,10 @@ mod tests {
         let cases = [
             ("data/scenecut_real/opencv_samples_cuts.mp4", None),
             ("data/scenecut_pyscenedetect/testvideo.mp4", None),
-            ("data/scenecut_pyscenedetect/testvideo.mp4", Some((320, 180))),
+            (
+                "data/scenecut_pyscenedetect/testvideo.mp4",
+                Some((320, 180)),
+            ),
         ];
         for (rel, size) in cases {
             let mut best = 0.0f64;
@@ -583,7 +662,9 @@ mod tests {
                 }
                 best = best.max(frames as f64 / start.elapsed().as_secs_f64());
             }
-            println!("decode speed {rel} scaled {size:?}: {frames} frames, {best:.0} frames/s (best of 3)");
+            println!(
+                "decode speed {rel} scaled {size:?}: {frames} frames, {best:.0} frames/s (best of 3)"
+            );
         }
         Ok(())
     }

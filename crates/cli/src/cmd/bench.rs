@@ -1,0 +1,221 @@
+//! `indoorloc bench`: speed figures of each stage, beside the reference peer where one is
+//! installed, as a ratio measured in the same run.
+
+use crate::cmd::eval::{EvalArgs, evaluate};
+use crate::output::{print_json, print_text};
+use anyhow::{Context, Result, bail};
+use clap::{Args, ValueEnum};
+use data::{PoseFrame, Trajectory};
+use geom::Pose;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+/// Stages with a benchmark.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Stage {
+    /// `eval` on a long TUM trajectory pair, against NumPy/SciPy's metrics.py.
+    Eval,
+}
+
+/// Arguments of `indoorloc bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// The stage to measure (all when omitted).
+    stage: Option<Stage>,
+    /// Frames in the synthetic trajectory of the eval benchmark.
+    #[arg(long, default_value_t = 100_000)]
+    frames: usize,
+    /// Timed repetitions; the median is reported.
+    #[arg(long, default_value_t = 3)]
+    repeat: usize,
+    /// Folder of the peer scripts (default: ../shared/tools/peers or shared/tools/peers from the
+    /// current folder, or $INDOORLOC_PEERS).
+    #[arg(long, value_name = "DIR")]
+    peers: Option<PathBuf>,
+    /// Print one JSON document instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Figures of one stage.
+#[derive(Debug, Serialize)]
+struct StageFigures {
+    stage: &'static str,
+    frames: usize,
+    /// indoorloc, read + match + metrics, milliseconds (median of the repeats).
+    ms: f64,
+    /// indoorloc with the HTML report and its plots, milliseconds.
+    ms_with_report: f64,
+    /// The peer's own timing of the same work, milliseconds, when the peer ran.
+    peer_ms: Option<f64>,
+    peer: &'static str,
+    /// `peer_ms / ms`: how many times faster indoorloc is.
+    ratio_vs_peer: Option<f64>,
+    /// Why the peer did not run, when it did not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    peer_note: Option<String>,
+}
+
+#[derive(Debug, Serialize)]
+struct BenchOutput {
+    stages: Vec<StageFigures>,
+}
+
+/// Runs `indoorloc bench`.
+pub fn run(args: &BenchArgs) -> Result<()> {
+    if args.repeat == 0 || args.frames < 2 {
+        bail!("--repeat must be at least 1 and --frames at least 2");
+    }
+    let stages = match args.stage {
+        Some(s) => vec![s],
+        None => vec![Stage::Eval],
+    };
+    let mut out = BenchOutput { stages: Vec::new() };
+    for stage in stages {
+        match stage {
+            Stage::Eval => out.stages.push(bench_eval(args)?),
+        }
+    }
+    if args.json {
+        print_json(&out)
+    } else {
+        let mut text = format!(
+            "{:<8}{:>9}{:>12}{:>16}{:>12}{:>10}\n",
+            "stage", "frames", "ms", "ms +report", "peer ms", "ratio"
+        );
+        for s in &out.stages {
+            let opt = |v: Option<f64>, digits: usize| v.map_or("-".into(), |v| format!("{v:.digits$}"));
+            text.push_str(&format!(
+                "{:<8}{:>9}{:>12.1}{:>16.1}{:>12}{:>10}\n",
+                s.stage,
+                s.frames,
+                s.ms,
+                s.ms_with_report,
+                opt(s.peer_ms, 1),
+                opt(s.ratio_vs_peer, 2)
+            ));
+            if let Some(note) = &s.peer_note {
+                text.push_str(&format!("  {}: {note}\n", s.peer));
+            }
+        }
+        print_text(&text)
+    }
+}
+
+fn bench_eval(args: &BenchArgs) -> Result<StageFigures> {
+    let dir = tempfile::tempdir().context("creating a temporary folder")?;
+    let (gt_path, est_path) = (dir.path().join("gt.tum"), dir.path().join("est.tum"));
+    let (gt, est) = noisy_walk(args.frames);
+    data::tum::write(&gt, &gt_path)?;
+    data::tum::write(&est, &est_path)?;
+
+    let time = |with_report: bool| -> Result<f64> {
+        let mut ms = Vec::with_capacity(args.repeat);
+        for _ in 0..args.repeat {
+            let mut eval_args = EvalArgs::new(gt_path.clone(), est_path.clone());
+            if with_report {
+                eval_args = eval_args.with_report(dir.path().join("report"));
+            }
+            let t = Instant::now();
+            evaluate(&eval_args)?;
+            ms.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(median(ms))
+    };
+    let ms = time(false)?;
+    let ms_with_report = time(true)?;
+    let (peer_ms, peer_note) = match run_metrics_peer(args, &gt_path, &est_path) {
+        Ok(v) => (Some(v), None),
+        Err(e) => (None, Some(format!("{e:#}"))),
+    };
+    Ok(StageFigures {
+        stage: "eval",
+        frames: args.frames,
+        ms,
+        ms_with_report,
+        ratio_vs_peer: peer_ms.map(|p| p / ms),
+        peer_ms,
+        peer: "numpy/scipy metrics.py",
+        peer_note,
+    })
+}
+
+/// A walk of `n` frames at 10 Hz and an estimate with noise and jittered time stamps.
+fn noisy_walk(n: usize) -> (Trajectory, Trajectory) {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let (mut gt, mut est) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for i in 0..n {
+        let t = 0.1 * i as f64;
+        let a = i as f64 * 1e-3;
+        let pose = Pose::from_euler_ypr(a, 0.1 * a.sin(), 0.0, [10.0 * a.cos(), 6.0 * a.sin(), 1.5])
+            .unwrap_or_default();
+        let mut noise = || rng.random_range(-1.0..1.0);
+        let noisy = Pose::from_euler_ypr(
+            a + 0.05 * noise(),
+            0.1 * a.sin() + 0.05 * noise(),
+            0.05 * noise(),
+            [10.0 * a.cos() + 0.3 * noise(), 6.0 * a.sin() + 0.3 * noise(), 1.5 + 0.1 * noise()],
+        )
+        .unwrap_or_default();
+        let jitter = 0.004 * noise();
+        gt.push(frame(t, pose));
+        est.push(frame(t + jitter, noisy));
+    }
+    (Trajectory::new(gt), Trajectory::new(est))
+}
+
+fn frame(t: f64, pose: Pose) -> PoseFrame {
+    PoseFrame {
+        name: format!("{t}"),
+        seq: String::new(),
+        t: Some(t),
+        pose,
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_unstable_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 { v[n / 2] } else { (v[n / 2 - 1] + v[n / 2]) / 2.0 }
+}
+
+/// Runs `metrics.py` on the same files and returns its own `compute_ms` (reading, association
+/// and statistics, without interpreter start-up: the same work `ms` measures).
+fn run_metrics_peer(args: &BenchArgs, gt: &Path, est: &Path) -> Result<f64> {
+    let dir = peers_dir(args).context("peer scripts not found (pass --peers DIR)")?;
+    let venv = std::env::var_os("PEERS_VENV")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".cache/indoorloc-peers")))
+        .context("no PEERS_VENV or HOME")?;
+    let python = venv.join("bin/python");
+    if !python.is_file() {
+        bail!("peer venv missing at {} (run {}/setup.sh)", venv.display(), dir.display());
+    }
+    let out = Command::new(&python)
+        .arg(dir.join("metrics.py"))
+        .args(["--gt", &gt.to_string_lossy(), "--est", &est.to_string_lossy(), "--no-evo"])
+        .output()
+        .context("running metrics.py")?;
+    if !out.status.success() {
+        bail!("metrics.py failed: {}", String::from_utf8_lossy(&out.stderr).trim());
+    }
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).context("metrics.py output")?;
+    v["compute_ms"].as_f64().context("metrics.py printed no compute_ms")
+}
+
+fn peers_dir(args: &BenchArgs) -> Option<PathBuf> {
+    let candidates = [
+        args.peers.clone(),
+        std::env::var_os("INDOORLOC_PEERS").map(PathBuf::from),
+        Some(PathBuf::from("../shared/tools/peers")),
+        Some(PathBuf::from("shared/tools/peers")),
+    ];
+    candidates
+        .into_iter()
+        .flatten()
+        .find(|d| d.join("metrics.py").is_file())
+}
