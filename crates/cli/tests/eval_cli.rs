@@ -35,18 +35,32 @@ fn real_7scenes_against_itself_is_exact() -> TestResult {
 #[test]
 fn formats_cross_check_on_shared_trajectory() -> TestResult {
     // The peers' test trajectory in TUM and in Cambridge layout: both must give the same figures.
-    let traj = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/tools/peers/testdata/traj");
+    let traj =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/tools/peers/testdata/traj");
     let tum = json_of(&indoorloc(&[
-        "eval", "--gt", s(&traj.join("gt.tum")), "--est", s(&traj.join("est.tum")), "--json",
+        "eval",
+        "--gt",
+        s(&traj.join("gt.tum")),
+        "--est",
+        s(&traj.join("est.tum")),
+        "--json",
     ])?)?;
     let cam = json_of(&indoorloc(&[
-        "eval", "--gt", s(&traj.join("gt_posenet.txt")), "--est", s(&traj.join("est_posenet.txt")), "--json",
+        "eval",
+        "--gt",
+        s(&traj.join("gt_posenet.txt")),
+        "--est",
+        s(&traj.join("est_posenet.txt")),
+        "--json",
     ])?)?;
     assert_eq!(cam["matched_by"], "name");
     assert_eq!(tum["matched_by"], "time");
     let a = tum["median_pos_m"].as_f64().ok_or("m")?;
     let b = cam["median_pos_m"].as_f64().ok_or("m")?;
-    assert!(tum["frames"].as_u64().ok_or("f")? > 0 && (a - b).abs() < 1e-6, "{a} {b}");
+    assert!(
+        tum["frames"].as_u64().ok_or("f")? > 0 && (a - b).abs() < 1e-6,
+        "{a} {b}"
+    );
     Ok(())
 }
 
@@ -58,10 +72,14 @@ fn report_and_cuts() -> TestResult {
     let report = dir.path().join("report");
     let out = indoorloc(&[
         "eval",
-        "--gt", s(&test_data("metrics_ref/gt.tum")),
-        "--est", s(&test_data("metrics_ref/est.tum")),
-        "--cuts", s(&cuts),
-        "--report", s(&report),
+        "--gt",
+        s(&test_data("metrics_ref/gt.tum")),
+        "--est",
+        s(&test_data("metrics_ref/est.tum")),
+        "--cuts",
+        s(&cuts),
+        "--report",
+        s(&report),
         "--json",
     ])?;
     let v = json_of(&out)?;
@@ -83,12 +101,24 @@ fn malformed_inputs_exit_2_with_one_line() -> TestResult {
     let dir = tempfile::tempdir()?;
     let gt = test_data("metrics_ref/gt.tum");
     let cases: &[(&str, &[u8], &str)] = &[
-        ("missing_col.tum", b"# t\n1.0 0 0 0 0 0 1\n", "missing_col.tum:2"),
+        (
+            "missing_col.tum",
+            b"# t\n1.0 0 0 0 0 0 1\n",
+            "missing_col.tum:2",
+        ),
         ("nan.tum", b"1.0 0 0 NaN 0 0 0 1\n", "nan.tum:1"),
         ("nonunit.tum", b"1.0 0 0 0 0 0 0 2\n", "nonunit.tum:1"),
         ("empty.tum", b"", "empty.tum"),
-        ("garbage.bin", &[0xde, 0xad, 0xbe, 0xef, 0x00, 0xff, 0x10], "garbage.bin"),
-        ("bad.jsonl", b"{\"frame\":1,\"position\":[0,0,0],\"quaternion\":[1,0,0,0]}\n{\"frame\":2}\n", "bad.jsonl:2"),
+        (
+            "garbage.bin",
+            &[0xde, 0xad, 0xbe, 0xef, 0x00, 0xff, 0x10],
+            "garbage.bin",
+        ),
+        (
+            "bad.jsonl",
+            b"{\"frame\":1,\"position\":[0,0,0],\"quaternion\":[1,0,0,0]}\n{\"frame\":2}\n",
+            "bad.jsonl:2",
+        ),
     ];
     for (name, content, needle) in cases {
         let p = dir.path().join(name);
@@ -111,12 +141,24 @@ fn malformed_inputs_exit_2_with_one_line() -> TestResult {
     let out = indoorloc(&["eval", "--gt", s(&scene), "--est", s(&p)])?;
     let err = String::from_utf8(out.stderr)?;
     assert_eq!(out.status.code(), Some(2), "{err}");
-    assert!(err.contains("unknown.jsonl") && err.contains("unknown frame 'nope'"), "{err}");
+    assert!(
+        err.contains("unknown.jsonl") && err.contains("unknown frame 'nope'"),
+        "{err}"
+    );
     // a wrong-size 7-Scenes matrix
     let seq = dir.path().join("scene/seq-01");
     std::fs::create_dir_all(&seq)?;
-    std::fs::write(seq.join("frame-000000.pose.txt"), "1 0 0 0\n0 1 0 0\n0 0 1 0\n")?;
-    let out = indoorloc(&["eval", "--gt", s(&dir.path().join("scene")), "--est", s(&gt)])?;
+    std::fs::write(
+        seq.join("frame-000000.pose.txt"),
+        "1 0 0 0\n0 1 0 0\n0 0 1 0\n",
+    )?;
+    let out = indoorloc(&[
+        "eval",
+        "--gt",
+        s(&dir.path().join("scene")),
+        "--est",
+        s(&gt),
+    ])?;
     let err = String::from_utf8(out.stderr)?;
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("frame-000000.pose.txt"), "{err}");

@@ -15,7 +15,9 @@ pub fn indoorloc(args: &[&str]) -> std::io::Result<Output> {
 
 /// A file under `crates/cli/tests/data/`.
 pub fn test_data(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(rel)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(rel)
 }
 
 /// A path under `../shared/data/` (real data, read in place, never copied).

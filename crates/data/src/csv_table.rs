@@ -128,4 +128,3 @@ pub(crate) fn csv_bytes(path: &Path, header: &[&str], rows: Vec<Vec<String>>) ->
     w.into_inner()
         .map_err(|e| DataError::invalid(path, e.to_string()))
 }
-

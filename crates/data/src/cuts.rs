@@ -33,7 +33,10 @@ fn from_lines(path: &Path, text: &str) -> Result<Vec<u64>> {
     let mut cuts = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let s = line.trim();
-        if s.is_empty() || s.starts_with('#') || (cuts.is_empty() && s.eq_ignore_ascii_case("frame")) {
+        if s.is_empty()
+            || s.starts_with('#')
+            || (cuts.is_empty() && s.eq_ignore_ascii_case("frame"))
+        {
             continue;
         }
         let v = s
@@ -65,7 +68,8 @@ mod tests {
         assert_eq!(read(&p)?, vec![10, 20, 30]);
         std::fs::write(&p, "# cuts\n5\n\n7\n").map_err(|e| DataError::io(&p, e))?;
         assert_eq!(read(&p)?, vec![5, 7]);
-        std::fs::write(&p, "{\"cuts\": [9, 3], \"frames\": 100}").map_err(|e| DataError::io(&p, e))?;
+        std::fs::write(&p, "{\"cuts\": [9, 3], \"frames\": 100}")
+            .map_err(|e| DataError::io(&p, e))?;
         assert_eq!(read(&p)?, vec![3, 9]);
         std::fs::write(&p, "frame\n4\nx\n").map_err(|e| DataError::io(&p, e))?;
         assert!(read(&p).unwrap_err().to_string().contains("cuts.csv:3:"));

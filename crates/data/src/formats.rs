@@ -156,17 +156,25 @@ fn detect_file(path: &Path) -> Result<Format> {
     };
     if first.starts_with('{') {
         // One object per line (localize output) or one document holding "frames" (NeRF).
-        return Ok(if serde_json::from_str::<serde_json::Value>(first).is_ok() {
-            Format::Jsonl
-        } else {
-            Format::Nerf
-        });
+        return Ok(
+            if serde_json::from_str::<serde_json::Value>(first).is_ok() {
+                Format::Jsonl
+            } else {
+                Format::Nerf
+            },
+        );
     }
     if first.starts_with("Visual Landmark Dataset") {
         return Ok(Format::Cambridge);
     }
-    let header: Vec<String> = first.split(',').map(|f| f.trim().to_ascii_lowercase()).collect();
-    if ["t", "x", "y", "theta"].iter().all(|c| header.iter().any(|h| h == c)) {
+    let header: Vec<String> = first
+        .split(',')
+        .map(|f| f.trim().to_ascii_lowercase())
+        .collect();
+    if ["t", "x", "y", "theta"]
+        .iter()
+        .all(|c| header.iter().any(|h| h == c))
+    {
         return Ok(Format::RobotLog);
     }
     let fields: Vec<&str> = first.split_whitespace().collect();
@@ -203,10 +211,22 @@ mod tests {
         let d = tmp.path();
         let cases = [
             ("a.txt", "# tum\n1.0 0 0 0 0 0 0 1\n", Format::Tum),
-            ("b.txt", "Visual Landmark Dataset V1\nImageFile\n\nseq1/f.png 0 0 0 1 0 0 0\n", Format::Cambridge),
+            (
+                "b.txt",
+                "Visual Landmark Dataset V1\nImageFile\n\nseq1/f.png 0 0 0 1 0 0 0\n",
+                Format::Cambridge,
+            ),
             ("c.txt", "seq1/f.png 0 0 0 1 0 0 0\n", Format::Cambridge),
-            ("d.log", "t,x,y,theta,sxx,syy,stt\n0,1,2,0,0,0,0\n", Format::RobotLog),
-            ("e.out", "{\"frame\":1,\"position\":[0,0,0],\"quaternion\":[1,0,0,0]}\n", Format::Jsonl),
+            (
+                "d.log",
+                "t,x,y,theta,sxx,syy,stt\n0,1,2,0,0,0,0\n",
+                Format::RobotLog,
+            ),
+            (
+                "e.out",
+                "{\"frame\":1,\"position\":[0,0,0],\"quaternion\":[1,0,0,0]}\n",
+                Format::Jsonl,
+            ),
             ("f.json", "{\n \"frames\": []\n}\n", Format::Nerf),
         ];
         for (name, content, want) in cases {

@@ -12,14 +12,20 @@ pub fn read_text(path: &Path) -> Result<String> {
     String::from_utf8(bytes).map_err(|e| {
         DataError::invalid(
             path,
-            format!("not a text file (invalid UTF-8 at byte {})", e.utf8_error().valid_up_to()),
+            format!(
+                "not a text file (invalid UTF-8 at byte {})",
+                e.utf8_error().valid_up_to()
+            ),
         )
     })
 }
 
 /// Writes `path` atomically: the content goes to a temporary file beside it, which is renamed
 /// over `path` only when complete. Parent folders are created.
-pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<()> {
+pub fn write_atomic(
+    path: &Path,
+    fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<()> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -60,7 +66,11 @@ pub fn parse_numbers(path: &Path, line_no: usize, fields: &[&str]) -> Result<Vec
             if v.is_finite() {
                 Ok(v)
             } else {
-                Err(DataError::parse(path, line_no, format!("non-finite value '{f}'")))
+                Err(DataError::parse(
+                    path,
+                    line_no,
+                    format!("non-finite value '{f}'"),
+                ))
             }
         })
         .collect()
@@ -122,7 +132,12 @@ mod tests {
         let err = write_atomic(&p, |_| Err(std::io::Error::other("boom")));
         assert!(err.is_err());
         assert_eq!(read_text(&p)?, "two");
-        assert_eq!(std::fs::read_dir(p.parent().unwrap_or(dir.path())).map_err(|e| DataError::io("d", e))?.count(), 1);
+        assert_eq!(
+            std::fs::read_dir(p.parent().unwrap_or(dir.path()))
+                .map_err(|e| DataError::io("d", e))?
+                .count(),
+            1
+        );
         Ok(())
     }
 
@@ -138,7 +153,12 @@ mod tests {
         let dir = tempfile::tempdir().map_err(|e| DataError::io("tmp", e))?;
         let p = dir.path().join("b");
         std::fs::write(&p, [0xff, 0xfe, 0x00]).map_err(|e| DataError::io(&p, e))?;
-        assert!(read_text(&p).unwrap_err().to_string().contains("not a text file"));
+        assert!(
+            read_text(&p)
+                .unwrap_err()
+                .to_string()
+                .contains("not a text file")
+        );
         Ok(())
     }
 }

@@ -113,9 +113,18 @@ mod tests {
         let dir = tempfile::tempdir().map_err(|e| DataError::io("tmp", e))?;
         let p = dir.path().join("bad.jsonl");
         for (content, needle) in [
-            ("{\"frame\":1,\"position\":[1,2],\"quaternion\":[1,0,0,0]}\n", ":1:"),
-            ("\n{\"frame\":1,\"position\":[1,2,3],\"quaternion\":[2,0,0,0]}\n", ":2: quaternion norm"),
-            ("{\"frame\":null,\"position\":[1,2,3],\"quaternion\":[1,0,0,0]}\n", "'frame'"),
+            (
+                "{\"frame\":1,\"position\":[1,2],\"quaternion\":[1,0,0,0]}\n",
+                ":1:",
+            ),
+            (
+                "\n{\"frame\":1,\"position\":[1,2,3],\"quaternion\":[2,0,0,0]}\n",
+                ":2: quaternion norm",
+            ),
+            (
+                "{\"frame\":null,\"position\":[1,2,3],\"quaternion\":[1,0,0,0]}\n",
+                "'frame'",
+            ),
             ("", "no poses"),
         ] {
             std::fs::write(&p, content).map_err(|e| DataError::io(&p, e))?;

@@ -106,7 +106,12 @@ pub fn match_frames(
     })
 }
 
-fn match_by_time(gt: &Trajectory, est: &Trajectory, est_path: &Path, max_dt: f64) -> Result<Matching> {
+fn match_by_time(
+    gt: &Trajectory,
+    est: &Trajectory,
+    est_path: &Path,
+    max_dt: f64,
+) -> Result<Matching> {
     let times = |t: &Trajectory| -> Vec<f64> { t.frames.iter().filter_map(|f| f.t).collect() };
     let mut pairs = crate::tum::associate(&times(gt), &times(est), max_dt);
     if pairs.is_empty() {
@@ -135,7 +140,9 @@ impl<'a> NameIndex<'a> {
         let mut qualified = HashMap::with_capacity(gt.len());
         let mut bare: HashMap<&str, Option<usize>> = HashMap::with_capacity(gt.len());
         for (i, f) in gt.frames.iter().enumerate() {
-            qualified.entry((f.seq.as_str(), f.name.as_str())).or_insert(i);
+            qualified
+                .entry((f.seq.as_str(), f.name.as_str()))
+                .or_insert(i);
             bare.entry(f.name.as_str())
                 .and_modify(|slot| *slot = None)
                 .or_insert(Some(i));
@@ -173,13 +180,24 @@ mod tests {
 
     #[test]
     fn by_name_with_sequences() -> Result<()> {
-        let gt = traj(&[("seq-01", "frame-0", None), ("seq-02", "frame-0", None), ("seq-02", "frame-1", None)]);
+        let gt = traj(&[
+            ("seq-01", "frame-0", None),
+            ("seq-02", "frame-0", None),
+            ("seq-02", "frame-1", None),
+        ]);
         let est = traj(&[("seq-02", "frame-0", None), ("", "frame-1", None)]);
         let m = match_frames(&gt, Path::new("gt"), &est, Path::new("est"), false, 0.01)?;
         assert_eq!(m.pairs, vec![(1, 0), (2, 1)]);
         assert_eq!(m.by, MatchedBy::Name);
         let ambiguous = traj(&[("", "frame-0", None)]);
-        let e = match_frames(&gt, Path::new("gt"), &ambiguous, Path::new("est"), false, 0.01);
+        let e = match_frames(
+            &gt,
+            Path::new("gt"),
+            &ambiguous,
+            Path::new("est"),
+            false,
+            0.01,
+        );
         assert!(e.unwrap_err().to_string().contains("ambiguous"));
         Ok(())
     }
@@ -188,10 +206,20 @@ mod tests {
     fn unknown_and_twice_are_errors() {
         let gt = traj(&[("", "a", None), ("", "b", None)]);
         let est = traj(&[("", "a", None), ("", "zz", None)]);
-        let msg = match_frames(&gt, Path::new("gt"), &est, Path::new("est.jsonl"), false, 0.01)
-            .unwrap_err()
-            .to_string();
-        assert!(msg.starts_with("est.jsonl: unknown frame 'zz' (entry 2)"), "{msg}");
+        let msg = match_frames(
+            &gt,
+            Path::new("gt"),
+            &est,
+            Path::new("est.jsonl"),
+            false,
+            0.01,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            msg.starts_with("est.jsonl: unknown frame 'zz' (entry 2)"),
+            "{msg}"
+        );
         let twice = traj(&[("", "a", None), ("", "a", None)]);
         assert!(match_frames(&gt, Path::new("gt"), &twice, Path::new("e"), false, 0.01).is_err());
         let none = traj(&[("", "q", None)]);
@@ -200,8 +228,16 @@ mod tests {
 
     #[test]
     fn by_time_when_names_differ() -> Result<()> {
-        let gt = traj(&[("", "0.0", Some(0.0)), ("", "0.1", Some(0.1)), ("", "0.2", Some(0.2))]);
-        let est = traj(&[("", "0.099", Some(0.099)), ("", "0.203", Some(0.203)), ("", "0.5", Some(0.5))]);
+        let gt = traj(&[
+            ("", "0.0", Some(0.0)),
+            ("", "0.1", Some(0.1)),
+            ("", "0.2", Some(0.2)),
+        ]);
+        let est = traj(&[
+            ("", "0.099", Some(0.099)),
+            ("", "0.203", Some(0.203)),
+            ("", "0.5", Some(0.5)),
+        ]);
         let m = match_frames(&gt, Path::new("gt"), &est, Path::new("est"), true, 0.01)?;
         assert_eq!(m.pairs, vec![(1, 0), (2, 1)]);
         assert_eq!((m.by, m.unmatched_est), (MatchedBy::Time, 1));

@@ -33,8 +33,8 @@
 //! [`split_by_sequence`] makes such splits deterministically; [`Splits::check`] rejects a sequence
 //! in two lists or one that `poses.csv` lacks.
 
-use crate::error::{DataError, Result};
 use crate::csv_table::{CsvTable, cell, csv_bytes};
+use crate::error::{DataError, Result};
 use crate::io::{parse_numbers, read_text, require_finite, write_atomic, write_text_atomic};
 use crate::trajectory::{PoseFrame, Trajectory};
 use geom::{Camera, Distortion, Mount, Pose};
@@ -616,8 +616,6 @@ fn poses_csv(path: &Path, traj: &Trajectory) -> Result<Vec<u8>> {
     }
     csv_bytes(path, &POSE_COLUMNS, rows)
 }
-
-
 
 fn parse_frame(path: &Path, line: usize, text: &str) -> Result<u64> {
     text.parse()

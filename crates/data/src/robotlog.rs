@@ -21,9 +21,9 @@
 //! drops an entry when `sxx` or `syy` exceeds 0.15 m² or `stt` exceeds 0.1 rad² (defaults);
 //! entries without covariance are kept, since nothing says they are bad.
 
+use crate::csv_table::{CsvTable, cell, csv_bytes};
 use crate::error::{DataError, Result};
 use crate::io::{parse_numbers, write_atomic};
-use crate::csv_table::{CsvTable, cell, csv_bytes};
 use crate::trajectory::{PoseFrame, Trajectory};
 use geom::{Mount, Pose3};
 use std::collections::HashMap;

@@ -188,8 +188,8 @@ fn cmp_nan_last(a: f64, b: f64) -> std::cmp::Ordering {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use nalgebra::UnitQuaternion;
     use geom::rotation::rotation_angle;
+    use nalgebra::UnitQuaternion;
     use std::path::PathBuf;
 
     const PEER_GT: &str = concat!(

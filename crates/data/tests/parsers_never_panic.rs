@@ -24,7 +24,10 @@ fn run_all_parsers(dir: &Path, content: &[u8]) {
         for target in [path.as_path(), sub.as_path()] {
             if let Err(e) = formats::read(target, Some(format)) {
                 let msg = e.to_string();
-                assert!(msg.contains(&*sub.to_string_lossy()), "{format}: error does not name the file: {msg}");
+                assert!(
+                    msg.contains(&*sub.to_string_lossy()),
+                    "{format}: error does not name the file: {msg}"
+                );
                 assert!(!msg.contains('\n'), "{format}: multi-line error: {msg}");
             }
         }

@@ -31,7 +31,11 @@ impl Lcg {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
-    let frames: usize = args.next().map(|a| a.parse()).transpose()?.unwrap_or(100_000);
+    let frames: usize = args
+        .next()
+        .map(|a| a.parse())
+        .transpose()?
+        .unwrap_or(100_000);
     let out = args
         .next()
         .map(PathBuf::from)
@@ -78,7 +82,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ev = PoseEvaluation::of(&gt, &est)?;
     let t_eval = t0.elapsed();
     let xy = |p: &[Pose]| -> Vec<[f64; 2]> {
-        p.iter().map(|p| [p.translation.x, p.translation.y]).collect()
+        p.iter()
+            .map(|p| [p.translation.x, p.translation.y])
+            .collect()
     };
     let (gt_xy, est_xy) = (xy(&gt), xy(&est));
     let mut inputs = Table::new("Inputs", ["input", "value"]);

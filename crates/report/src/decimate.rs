@@ -116,7 +116,11 @@ pub(crate) fn envelope(values: &[f64]) -> Vec<Vec<(f64, f64)>> {
     segments
 }
 
-/// The median of each of [`MAX_TIME_BUCKETS`] frame buckets, at the bucket's middle frame, when
+/// A decimated time series gets a trend line through the medians of this many frame buckets
+/// (about one per 4 pixels), over the min–max band of [`envelope`].
+pub(crate) const MEDIAN_BUCKETS: usize = 300;
+
+/// The median of each of [`MEDIAN_BUCKETS`] frame buckets, at the bucket's middle frame, when
 /// the series is long enough for [`envelope`] to decimate it (`None` otherwise). Buckets without a
 /// finite value break the line.
 pub(crate) fn bucket_medians(values: &[f64]) -> Option<Vec<Vec<(f64, f64)>>> {
@@ -124,7 +128,7 @@ pub(crate) fn bucket_medians(values: &[f64]) -> Option<Vec<Vec<(f64, f64)>>> {
     if n <= 2 * MAX_TIME_BUCKETS {
         return None;
     }
-    let b = MAX_TIME_BUCKETS;
+    let b = MEDIAN_BUCKETS;
     let mut segments = Vec::new();
     let mut current = Vec::new();
     let mut scratch = Vec::with_capacity(n / b + 1);
@@ -211,9 +215,14 @@ fn clip_segment(a: (f64, f64), b: (f64, f64), rect: [f64; 4]) -> Option<((f64, f
 /// The pieces of a polyline inside `rect` = `[x0, x1, y0, y1]` (plotters does not clip lines
 /// to the plotting area, so everything that may leave it is clipped here).
 pub(crate) fn clip_polyline(points: &[(f64, f64)], rect: [f64; 4]) -> Vec<Vec<(f64, f64)>> {
-    let inside = |p: &(f64, f64)| p.0 >= rect[0] && p.0 <= rect[1] && p.1 >= rect[2] && p.1 <= rect[3];
+    let inside =
+        |p: &(f64, f64)| p.0 >= rect[0] && p.0 <= rect[1] && p.1 >= rect[2] && p.1 <= rect[3];
     if points.len() == 1 {
-        return if inside(&points[0]) { vec![points.to_vec()] } else { Vec::new() };
+        return if inside(&points[0]) {
+            vec![points.to_vec()]
+        } else {
+            Vec::new()
+        };
     }
     let mut pieces = Vec::new();
     let mut current: Vec<(f64, f64)> = Vec::new();
@@ -244,7 +253,11 @@ pub(crate) fn clip_polyline(points: &[(f64, f64)], rect: [f64; 4]) -> Vec<Vec<(f
 }
 
 /// Low and high quantiles (fractions 0–1) of the finite values, `None` when there are none.
-pub(crate) fn quantile_range(values: impl Iterator<Item = f64>, lo: f64, hi: f64) -> Option<(f64, f64)> {
+pub(crate) fn quantile_range(
+    values: impl Iterator<Item = f64>,
+    lo: f64,
+    hi: f64,
+) -> Option<(f64, f64)> {
     let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
     if v.is_empty() {
         return None;
@@ -304,7 +317,10 @@ mod tests {
         let pieces = clip_polyline(&pts, rect);
         assert_eq!(
             pieces,
-            vec![vec![(5.0, 5.0), (10.0, 5.0)], vec![(10.0, 6.0), (5.0, 6.0), (6.0, 7.0)]]
+            vec![
+                vec![(5.0, 5.0), (10.0, 5.0)],
+                vec![(10.0, 6.0), (5.0, 6.0), (6.0, 7.0)]
+            ]
         );
         assert!(clip_polyline(&[(20.0, 20.0), (30.0, 30.0)], rect).is_empty());
         assert_eq!(clip_polyline(&[(1.0, 1.0)], rect).len(), 1);
@@ -322,10 +338,12 @@ mod tests {
     #[test]
     fn medians_only_for_long_series() {
         assert!(bucket_medians(&[1.0; 100]).is_none());
-        let v: Vec<f64> = (0..10_000).map(|i| if i % 10 == 0 { 50.0 } else { 1.0 }).collect();
+        let v: Vec<f64> = (0..10_000)
+            .map(|i| if i % 10 == 0 { 50.0 } else { 1.0 })
+            .collect();
         let m = bucket_medians(&v).unwrap_or_default();
         assert_eq!(m.len(), 1);
-        assert_eq!(m[0].len(), MAX_TIME_BUCKETS);
+        assert_eq!(m[0].len(), MEDIAN_BUCKETS);
         assert!(m[0].iter().all(|&(_, y)| y == 1.0));
     }
 

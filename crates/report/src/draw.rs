@@ -161,7 +161,8 @@ where
     let (strip, rest) = area.split_vertically(ROW_H * rows.len() as i32 + 8);
     let style = font.pos(Pos::new(HPos::Left, VPos::Center));
     for (r, row) in rows.iter().enumerate() {
-        let total: i32 = row.iter().map(|(_, w)| w).sum::<i32>() + ENTRY_GAP * (row.len() as i32 - 1);
+        let total: i32 =
+            row.iter().map(|(_, w)| w).sum::<i32>() + ENTRY_GAP * (row.len() as i32 - 1);
         let mut x = (width as i32 - total) / 2;
         let y = ROW_H * r as i32 + ROW_H / 2 + 2;
         for &(i, w) in row {
@@ -169,11 +170,22 @@ where
             let (a, b) = ((x, y), (x + GLYPH_W, y));
             let mid = x + GLYPH_W / 2;
             match glyph {
-                Glyph::Line(c, w) => strip.draw(&PathElement::new(vec![a, b], c.stroke_width(*w)))?,
-                Glyph::Band(c) => strip.draw(&Rectangle::new([(x, y - 6), (x + GLYPH_W, y + 6)], c.filled()))?,
-                Glyph::VLine(c) => strip.draw(&PathElement::new(vec![(mid, y - 8), (mid, y + 8)], c.stroke_width(2)))?,
+                Glyph::Line(c, w) => {
+                    strip.draw(&PathElement::new(vec![a, b], c.stroke_width(*w)))?
+                }
+                Glyph::Band(c) => strip.draw(&Rectangle::new(
+                    [(x, y - 6), (x + GLYPH_W, y + 6)],
+                    c.filled(),
+                ))?,
+                Glyph::VLine(c) => strip.draw(&PathElement::new(
+                    vec![(mid, y - 8), (mid, y + 8)],
+                    c.stroke_width(2),
+                ))?,
                 Glyph::Circle(c) => strip.draw(&Circle::new((mid, y), 6, c.filled()))?,
-                Glyph::Square(c) => strip.draw(&Rectangle::new([(mid - 5, y - 5), (mid + 5, y + 5)], c.filled()))?,
+                Glyph::Square(c) => strip.draw(&Rectangle::new(
+                    [(mid - 5, y - 5), (mid + 5, y + 5)],
+                    c.filled(),
+                ))?,
             }
             strip.draw_text(label, &style, (x + GLYPH_W + TEXT_GAP, y))?;
             x += w + ENTRY_GAP;
@@ -193,19 +205,14 @@ where
     let area = titled(root, &p.title)?;
     // one legend for both panels: series share their colour across panels
     let mut entries: Vec<(String, Glyph)> = Vec::new();
-    let mut banded = false;
     if let Some(first) = p.panels.first() {
         for (i, c) in first.curves.iter().enumerate() {
             let color = PALETTE[i % PALETTE.len()].to_rgba();
             entries.push((c.label.clone(), Glyph::Line(color, 3)));
         }
     }
-    for panel in &p.panels {
-        banded |= panel.curves.iter().any(|c| !c.band.is_empty());
-    }
-    if banded {
-        let label = "line: median, shade: range of the frames in each pixel column";
-        entries.push((label.into(), Glyph::Band(PALETTE[0].mix(0.3))));
+    if let Some(note) = &p.band_note {
+        entries.push((note.clone(), Glyph::Band(PALETTE[0].mix(0.3))));
     }
     if !p.markers.is_empty() {
         entries.push((p.marker_label.clone(), Glyph::VLine(MARKER.mix(0.8))));
@@ -235,7 +242,10 @@ fn tick(v: f64, span: f64) -> String {
     };
     let s = format!("{v:.decimals$}");
     // "-0" and "-0.0" read as noise
-    if s.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+    if s.trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.')
+    {
         s.trim_start_matches('-').to_string()
     } else {
         s
@@ -335,7 +345,11 @@ where
     for seg in &curve.band {
         chart.draw_series(LineSeries::new(seg.iter().copied(), band))?;
     }
-    let style = if curve.band.is_empty() { style } else { color.stroke_width(2) };
+    let style = if curve.band.is_empty() {
+        style
+    } else {
+        color.stroke_width(2)
+    };
     let width = style.stroke_width;
     let mut labelled = false;
     for (k, seg) in curve.segments.iter().enumerate() {
@@ -453,12 +467,11 @@ where
         .draw()?;
 
     if !p.links.is_empty() {
-        chart
-            .draw_series(
-                p.links
-                    .iter()
-                    .map(|l| PathElement::new(l.to_vec(), LINK.mix(0.3).stroke_width(1))),
-            )?;
+        chart.draw_series(
+            p.links
+                .iter()
+                .map(|l| PathElement::new(l.to_vec(), LINK.mix(0.3).stroke_width(1))),
+        )?;
     }
     // estimates under the ground truth: where they agree the dark line covers them, where
     // they part the colour shows
@@ -483,18 +496,16 @@ where
         .chain(p.gt_ends.map(|(s, e)| (s, e, GROUND_TRUTH)))
         .collect();
     if !ends.is_empty() {
-        chart
-            .draw_series(ends.iter().map(|&(s, _, c)| {
-                EmptyElement::at(s)
-                    + Circle::new((0, 0), 8, WHITE.filled())
-                    + Circle::new((0, 0), 6, c.filled())
-            }))?;
-        chart
-            .draw_series(ends.iter().map(|&(_, e, c)| {
-                EmptyElement::at(e)
-                    + Rectangle::new([(-7, -7), (7, 7)], WHITE.filled())
-                    + Rectangle::new([(-5, -5), (5, 5)], c.filled())
-            }))?;
+        chart.draw_series(ends.iter().map(|&(s, _, c)| {
+            EmptyElement::at(s)
+                + Circle::new((0, 0), 8, WHITE.filled())
+                + Circle::new((0, 0), 6, c.filled())
+        }))?;
+        chart.draw_series(ends.iter().map(|&(_, e, c)| {
+            EmptyElement::at(e)
+                + Rectangle::new([(-7, -7), (7, 7)], WHITE.filled())
+                + Rectangle::new([(-5, -5), (5, 5)], c.filled())
+        }))?;
     }
     Ok(())
 }

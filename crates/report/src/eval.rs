@@ -197,7 +197,10 @@ pub fn pose_eval_report(
     let mut cards = vec![
         ("frames".to_string(), n.to_string()),
         ("median position error".into(), metres(ev.position.median)),
-        ("median rotation error".into(), degrees(ev.rotation_deg.median)),
+        (
+            "median rotation error".into(),
+            degrees(ev.rotation_deg.median),
+        ),
     ];
     if let Some(a) = acc {
         cards.push((
@@ -249,10 +252,19 @@ mod tests {
             let (x, y) = (5.0 * t.cos() + 0.3 * t, 3.0 * (0.7 * t).sin());
             gt.push(Pose::from_euler_ypr(0.1 * t, 0.0, 0.0, [x, y, 1.5])?);
             let e = 0.2 * (1.3 * t).sin();
-            est.push(Pose::from_euler_ypr(0.1 * t + 0.02 * e, 0.0, 0.0, [x + e, y - 0.5 * e, 1.5])?);
+            est.push(Pose::from_euler_ypr(
+                0.1 * t + 0.02 * e,
+                0.0,
+                0.0,
+                [x + e, y - 0.5 * e, 1.5],
+            )?);
         }
         let ev = PoseEvaluation::of(&gt, &est)?;
-        let xy = |p: &[Pose]| p.iter().map(|p| [p.translation.x, p.translation.y]).collect();
+        let xy = |p: &[Pose]| {
+            p.iter()
+                .map(|p| [p.translation.x, p.translation.y])
+                .collect()
+        };
         Ok((ev, xy(&gt), xy(&est)))
     }
 

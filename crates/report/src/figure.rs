@@ -1,8 +1,8 @@
 //! Figures: typed descriptions of the plots, rendered to PNG or SVG by the same drawing code.
 
 use crate::decimate::{
-    MAX_LINKS, bucket_medians, cdf_points, clip_polyline, clip_x, envelope, quantile_range, stride_indices,
-    track_segments,
+    MAX_LINKS, MAX_TIME_BUCKETS, MEDIAN_BUCKETS, bucket_medians, cdf_points, clip_polyline, clip_x,
+    envelope, quantile_range, stride_indices, track_segments,
 };
 use crate::draw;
 use crate::error::{ReportError, Result};
@@ -73,8 +73,11 @@ pub struct ErrorCdf {
 /// Per-frame position and rotation errors against frame index, two stacked panels, with optional
 /// vertical markers (scene cuts).
 ///
-/// Decimation: a series longer than 2 × 1200 frames is drawn as the minimum and maximum of each of
-/// 1200 frame buckets (about one per pixel column), which keeps every spike visible.
+/// Decimation: a series longer than 2 × 1200 frames is drawn as a light band through the minimum
+/// and maximum of each of 1200 frame buckets (about one per pixel column, so every spike stays
+/// visible) under a line through the medians of 300 buckets. When rare spikes exceed twice the
+/// 99th percentile, the y axis stops at 1.3 × that percentile and the axis title says how many
+/// frames lie above.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ErrorOverTime {
     /// Figure title.
@@ -207,12 +210,14 @@ impl Figure {
 
     /// The figure as an SVG document.
     pub fn to_svg(&self) -> Result<String> {
-        self.prepare(Path::new(IN_MEMORY))?.svg(Path::new(IN_MEMORY))
+        self.prepare(Path::new(IN_MEMORY))?
+            .svg(Path::new(IN_MEMORY))
     }
 
     /// The figure as PNG file bytes.
     pub fn to_png(&self) -> Result<Vec<u8>> {
-        self.prepare(Path::new(IN_MEMORY))?.png(Path::new(IN_MEMORY))
+        self.prepare(Path::new(IN_MEMORY))?
+            .png(Path::new(IN_MEMORY))
     }
 
     /// Writes the figure as SVG to `path`, atomically.
@@ -295,6 +300,8 @@ pub(crate) struct CdfPlot {
 
 pub(crate) struct TimePlot {
     pub(crate) title: String,
+    /// How the longest series was thinned, for the legend; `None` when drawn in full.
+    pub(crate) band_note: Option<String>,
     pub(crate) panels: Vec<Panel>,
     pub(crate) markers: Vec<f64>,
     pub(crate) marker_label: String,
@@ -484,7 +491,12 @@ fn prepare_time(f: &ErrorOverTime) -> Result<TimePlot> {
     let mut panels = Vec::new();
     let kinds = [
         ("position error (m)", "position error", "m", &f.position_m),
-        ("rotation error (deg)", "rotation error", "°", &f.rotation_deg),
+        (
+            "rotation error (deg)",
+            "rotation error",
+            "°",
+            &f.rotation_deg,
+        ),
     ];
     for (y_desc, what, unit, series) in kinds {
         if series.is_empty() {
@@ -568,8 +580,15 @@ fn prepare_time(f: &ErrorOverTime) -> Result<TimePlot> {
             markers.push(x);
         }
     }
+    let band_note = (frames > 2 * MAX_TIME_BUCKETS).then(|| {
+        format!(
+            "line: median of each {} frames, shade: their full range",
+            frames.div_ceil(MEDIAN_BUCKETS)
+        )
+    });
     Ok(TimePlot {
         title: f.title.clone(),
+        band_note,
         panels,
         markers,
         marker_label: if f.marker_label.is_empty() {
@@ -591,19 +610,34 @@ fn ends(points: &[[f64; 2]]) -> Option<((f64, f64), (f64, f64))> {
 /// truth, and the central 99 % (0.5th to 99.5th percentile per axis) of each estimate, so that a
 /// few wild estimates do not shrink the building to a corner. `None` without a finite point.
 pub(crate) fn top_down_view(f: &TopDown) -> Option<[f64; 4]> {
-    let mut b = [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
+    let mut b = [
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    ];
     let mut grow = |x: (f64, f64), y: (f64, f64)| {
         b = [b[0].min(x.0), b[1].max(x.1), b[2].min(y.0), b[3].max(y.1)];
     };
-    let gt = f.ground_truth.iter().filter(|p| p[0].is_finite() && p[1].is_finite());
+    let gt = f
+        .ground_truth
+        .iter()
+        .filter(|p| p[0].is_finite() && p[1].is_finite());
     let xs = quantile_range(gt.clone().map(|p| p[0]), 0.0, 1.0);
     let ys = quantile_range(gt.map(|p| p[1]), 0.0, 1.0);
     if let (Some(x), Some(y)) = (xs, ys) {
         grow(x, y);
     }
     for t in &f.estimates {
-        let pts = t.points.iter().filter(|p| p[0].is_finite() && p[1].is_finite());
-        let (lo, hi) = if t.points.len() >= 200 { (0.005, 0.995) } else { (0.0, 1.0) };
+        let pts = t
+            .points
+            .iter()
+            .filter(|p| p[0].is_finite() && p[1].is_finite());
+        let (lo, hi) = if t.points.len() >= 200 {
+            (0.005, 0.995)
+        } else {
+            (0.0, 1.0)
+        };
         let xs = quantile_range(pts.clone().map(|p| p[0]), lo, hi);
         let ys = quantile_range(pts.map(|p| p[1]), lo, hi);
         if let (Some(x), Some(y)) = (xs, ys) {
@@ -627,9 +661,13 @@ fn prepare_top_down(f: &TopDown) -> Result<TopDownPlot> {
         ReportError::BadInput(format!("top-down figure '{}': no finite points", f.title))
     })?;
     let rect = padded(view);
-    let inside = |p: &(f64, f64)| p.0 >= rect[0] && p.0 <= rect[1] && p.1 >= rect[2] && p.1 <= rect[3];
+    let inside =
+        |p: &(f64, f64)| p.0 >= rect[0] && p.0 <= rect[1] && p.1 >= rect[2] && p.1 <= rect[3];
     let clip = |segments: Vec<Vec<(f64, f64)>>| -> Vec<Vec<(f64, f64)>> {
-        segments.iter().flat_map(|s| clip_polyline(s, rect)).collect()
+        segments
+            .iter()
+            .flat_map(|s| clip_polyline(s, rect))
+            .collect()
     };
     let clip_ends = |e: Option<((f64, f64), (f64, f64))>| e.filter(|(s, e)| inside(s) && inside(e));
     let outside: usize = f
@@ -729,10 +767,18 @@ mod tests {
         vec![
             error_cdf(
                 "CDF",
-                &[Series::new("cuts handled", a.clone()), Series::new("cuts ignored", b.clone())],
+                &[
+                    Series::new("cuts handled", a.clone()),
+                    Series::new("cuts ignored", b.clone()),
+                ],
                 &[Series::new("cuts handled", b.clone())],
             ),
-            error_over_time("Over time", &[Series::new("net", a)], &[Series::new("net", b)], Some(&[10, 2000])),
+            error_over_time(
+                "Over time",
+                &[Series::new("net", a)],
+                &[Series::new("net", b)],
+                Some(&[10, 2000]),
+            ),
             trajectory_top_down("Top", &xy, &[Track::new("net", est)], true),
         ]
     }
@@ -777,8 +823,14 @@ mod tests {
             trajectory_top_down("t", &[], &[], true),
         ];
         for fig in bad {
-            assert!(matches!(fig.to_png(), Err(ReportError::BadInput(_))), "{fig:?}");
-            assert!(matches!(fig.to_svg(), Err(ReportError::BadInput(_))), "{fig:?}");
+            assert!(
+                matches!(fig.to_png(), Err(ReportError::BadInput(_))),
+                "{fig:?}"
+            );
+            assert!(
+                matches!(fig.to_svg(), Err(ReportError::BadInput(_))),
+                "{fig:?}"
+            );
         }
     }
 

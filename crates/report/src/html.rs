@@ -95,7 +95,11 @@ impl HtmlReport {
     }
 
     /// A figure, rendered now and embedded as inline SVG.
-    pub fn figure(&mut self, figure: &Figure, caption: impl Into<String>) -> Result<&mut HtmlReport> {
+    pub fn figure(
+        &mut self,
+        figure: &Figure,
+        caption: impl Into<String>,
+    ) -> Result<&mut HtmlReport> {
         let svg = figure.to_svg()?;
         Ok(self.svg(svg, caption))
     }
@@ -135,16 +139,17 @@ impl HtmlReport {
     pub fn to_html(&self) -> String {
         let mut out = String::with_capacity(64 * 1024);
         out.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n");
-        out.push_str(
-            "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n",
-        );
+        out.push_str("<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n");
         out.push_str(&format!("<title>{}</title>\n", escape(&self.title)));
         out.push_str("<style>\n");
         out.push_str(CSS);
         out.push_str("</style>\n</head>\n<body>\n<main>\n<header>\n");
         out.push_str(&format!("<h1>{}</h1>\n", escape(&self.title)));
         if !self.subtitle.is_empty() {
-            out.push_str(&format!("<p class=\"sub\">{}</p>\n", escape(&self.subtitle)));
+            out.push_str(&format!(
+                "<p class=\"sub\">{}</p>\n",
+                escape(&self.subtitle)
+            ));
         }
         out.push_str("</header>\n");
         let titled: Vec<(usize, &Section)> = self

@@ -88,7 +88,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             "stage", "frames", "ms", "ms +report", "peer ms", "ratio"
         );
         for s in &out.stages {
-            let opt = |v: Option<f64>, digits: usize| v.map_or("-".into(), |v| format!("{v:.digits$}"));
+            let opt =
+                |v: Option<f64>, digits: usize| v.map_or("-".into(), |v| format!("{v:.digits$}"));
             text.push_str(&format!(
                 "{:<8}{:>9}{:>12.1}{:>16.1}{:>12}{:>10}\n",
                 s.stage,
@@ -151,14 +152,19 @@ fn noisy_walk(n: usize) -> (Trajectory, Trajectory) {
     for i in 0..n {
         let t = 0.1 * i as f64;
         let a = i as f64 * 1e-3;
-        let pose = Pose::from_euler_ypr(a, 0.1 * a.sin(), 0.0, [10.0 * a.cos(), 6.0 * a.sin(), 1.5])
-            .unwrap_or_default();
+        let pose =
+            Pose::from_euler_ypr(a, 0.1 * a.sin(), 0.0, [10.0 * a.cos(), 6.0 * a.sin(), 1.5])
+                .unwrap_or_default();
         let mut noise = || rng.random_range(-1.0..1.0);
         let noisy = Pose::from_euler_ypr(
             a + 0.05 * noise(),
             0.1 * a.sin() + 0.05 * noise(),
             0.05 * noise(),
-            [10.0 * a.cos() + 0.3 * noise(), 6.0 * a.sin() + 0.3 * noise(), 1.5 + 0.1 * noise()],
+            [
+                10.0 * a.cos() + 0.3 * noise(),
+                6.0 * a.sin() + 0.3 * noise(),
+                1.5 + 0.1 * noise(),
+            ],
         )
         .unwrap_or_default();
         let jitter = 0.004 * noise();
@@ -180,7 +186,11 @@ fn frame(t: f64, pose: Pose) -> PoseFrame {
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_unstable_by(f64::total_cmp);
     let n = v.len();
-    if n % 2 == 1 { v[n / 2] } else { (v[n / 2 - 1] + v[n / 2]) / 2.0 }
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) / 2.0
+    }
 }
 
 /// Runs `metrics.py` on the same files and returns its own `compute_ms` (reading, association
@@ -193,18 +203,33 @@ fn run_metrics_peer(args: &BenchArgs, gt: &Path, est: &Path) -> Result<f64> {
         .context("no PEERS_VENV or HOME")?;
     let python = venv.join("bin/python");
     if !python.is_file() {
-        bail!("peer venv missing at {} (run {}/setup.sh)", venv.display(), dir.display());
+        bail!(
+            "peer venv missing at {} (run {}/setup.sh)",
+            venv.display(),
+            dir.display()
+        );
     }
     let out = Command::new(&python)
         .arg(dir.join("metrics.py"))
-        .args(["--gt", &gt.to_string_lossy(), "--est", &est.to_string_lossy(), "--no-evo"])
+        .args([
+            "--gt",
+            &gt.to_string_lossy(),
+            "--est",
+            &est.to_string_lossy(),
+            "--no-evo",
+        ])
         .output()
         .context("running metrics.py")?;
     if !out.status.success() {
-        bail!("metrics.py failed: {}", String::from_utf8_lossy(&out.stderr).trim());
+        bail!(
+            "metrics.py failed: {}",
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
     }
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).context("metrics.py output")?;
-    v["compute_ms"].as_f64().context("metrics.py printed no compute_ms")
+    v["compute_ms"]
+        .as_f64()
+        .context("metrics.py printed no compute_ms")
 }
 
 fn peers_dir(args: &BenchArgs) -> Option<PathBuf> {

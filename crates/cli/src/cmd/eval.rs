@@ -146,21 +146,26 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalOutput> {
         time_keyed(gt_format) || time_keyed(est_format),
         args.max_dt,
     )?;
-    let gt_poses: Vec<_> = matching.pairs.iter().map(|&(g, _)| gt.frames[g].pose).collect();
-    let est_poses: Vec<_> = matching.pairs.iter().map(|&(_, e)| est.frames[e].pose).collect();
+    let gt_poses: Vec<_> = matching
+        .pairs
+        .iter()
+        .map(|&(g, _)| gt.frames[g].pose)
+        .collect();
+    let est_poses: Vec<_> = matching
+        .pairs
+        .iter()
+        .map(|&(_, e)| est.frames[e].pose)
+        .collect();
     let ev = PoseEvaluation::of(&gt_poses, &est_poses)?;
 
     if let Some(path) = &args.per_frame {
         write_per_frame(path, &matching.pairs, &est, &ev)?;
     }
-    let cut_split = match &args.cuts {
-        Some(path) => {
-            let cuts = data::cuts::read(path)?;
-            let gt_index: Vec<usize> = matching.pairs.iter().map(|&(g, _)| g).collect();
-            Some(split_near_cuts(&ev, &gt_index, &cuts, args.cut_window))
-        }
-        None => None,
-    };
+    let gt_index: Vec<usize> = matching.pairs.iter().map(|&(g, _)| g).collect();
+    let cuts = args.cuts.as_deref().map(data::cuts::read).transpose()?;
+    let cut_split = cuts
+        .as_deref()
+        .map(|cuts| split_near_cuts(&ev, &gt_index, cuts, args.cut_window));
 
     let acc = |i: usize| ev.accuracy[i].fraction;
     let mut out = EvalOutput {
@@ -195,8 +200,62 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalOutput> {
         out.near_cuts = Some(near);
         out.away_from_cuts = Some(away);
     }
+    if let Some(dir) = &args.report {
+        let xy = |poses: &[geom::Pose]| -> Vec<[f64; 2]> {
+            poses
+                .iter()
+                .map(|p| [p.translation.x, p.translation.y])
+                .collect()
+        };
+        // Cuts are ground-truth frame numbers; the plots index matched frames.
+        let cut_marks: Option<Vec<usize>> = cuts.as_deref().map(|cuts| {
+            cuts.iter()
+                .map(|&c| gt_index.partition_point(|&g| (g as u64) < c))
+                .collect()
+        });
+        let mut extra = Vec::new();
+        if let (Some(near), Some(away)) = (&out.near_cuts, &out.away_from_cuts) {
+            extra.push(cut_table(near, away, args.cut_window));
+        }
+        let title = format!("{} vs {}", args.est.display(), args.gt.display());
+        let path = report::pose_eval_report(
+            dir,
+            &title,
+            &ev,
+            &xy(&gt_poses),
+            &xy(&est_poses),
+            cut_marks.as_deref(),
+            &extra,
+        )
+        .with_context(|| format!("writing the report into {}", dir.display()))?;
+        out.report = Some(path);
+    }
     out.seconds = start.elapsed().as_secs_f64();
     Ok(out)
+}
+
+fn cut_table(near: &Subset, away: &Subset, window: u64) -> report::Table {
+    let mut t = report::Table::new(
+        format!("Frames within {window} frames after a scene cut, and the others"),
+        [
+            "frames",
+            "count",
+            "median position m",
+            "median rotation °",
+            "within 0.5 m, 5°",
+        ],
+    );
+    let opt = |v: Option<f64>, digits: usize| v.map_or("-".into(), |v| format!("{v:.digits$}"));
+    for (name, s) in [("near cuts", near), ("away from cuts", away)] {
+        t.push_row([
+            name.to_string(),
+            s.frames.to_string(),
+            opt(s.median_pos_m, 3),
+            opt(s.median_rot_deg, 2),
+            opt(s.acc_50cm_5deg.map(|a| a * 100.0), 1) + " %",
+        ]);
+    }
+    t
 }
 
 fn write_per_frame(
@@ -205,11 +264,14 @@ fn write_per_frame(
     est: &data::Trajectory,
     ev: &PoseEvaluation,
 ) -> Result<()> {
-    use std::io::Write;
     data::io::write_atomic(path, |w| {
         writeln!(w, "frame,pos_err_m,rot_err_deg")?;
         for (k, &(_, e)) in pairs.iter().enumerate() {
-            writeln!(w, "{},{},{}", est.frames[e].name, ev.pos_err_m[k], ev.rot_err_deg[k])?;
+            writeln!(
+                w,
+                "{},{},{}",
+                est.frames[e].name, ev.pos_err_m[k], ev.rot_err_deg[k]
+            )?;
         }
         Ok(())
     })?;
@@ -221,14 +283,19 @@ fn read_poses(path: &Path, format: Option<Format>) -> Result<(Format, data::Traj
         Some(f) => f,
         None => formats::detect(path)?,
     };
-    let traj = formats::read(path, Some(format))
-        .with_context(|| format!("reading {format} poses"))?;
+    let traj =
+        formats::read(path, Some(format)).with_context(|| format!("reading {format} poses"))?;
     Ok((format, traj))
 }
 
 /// Splits per-frame errors into frames at most `window` frames after a cut (by ground-truth
 /// frame index) and the others.
-fn split_near_cuts(ev: &PoseEvaluation, gt_index: &[usize], cuts: &[u64], window: u64) -> (Subset, Subset) {
+fn split_near_cuts(
+    ev: &PoseEvaluation,
+    gt_index: &[usize],
+    cuts: &[u64],
+    window: u64,
+) -> (Subset, Subset) {
     let near = |i: usize| {
         let i = i as u64;
         // cuts are sorted: the last cut at or before i decides.
@@ -237,7 +304,11 @@ fn split_near_cuts(ev: &PoseEvaluation, gt_index: &[usize], cuts: &[u64], window
     };
     let (mut near_idx, mut away_idx) = (Vec::new(), Vec::new());
     for (k, &g) in gt_index.iter().enumerate() {
-        if near(g) { near_idx.push(k) } else { away_idx.push(k) }
+        if near(g) {
+            near_idx.push(k)
+        } else {
+            away_idx.push(k)
+        }
     }
     (subset(ev, &near_idx), subset(ev, &away_idx))
 }
@@ -270,7 +341,10 @@ fn human_table(o: &EvalOutput) -> String {
         "{} frames matched by {:?} ({} ground truth, {} estimates, {} unmatched)\n",
         o.frames, o.matched_by, o.gt_frames, o.est_frames, o.unmatched_est
     ));
-    s.push_str(&format!("{:<22}{:>12}{:>12}\n", "", "position m", "rotation °"));
+    s.push_str(&format!(
+        "{:<22}{:>12}{:>12}\n",
+        "", "position m", "rotation °"
+    ));
     for (name, p, r) in [
         ("median", o.median_pos_m, o.median_rot_deg),
         ("mean", o.mean_pos_m, o.mean_rot_deg),
@@ -290,7 +364,10 @@ fn human_table(o: &EvalOutput) -> String {
         "{:<22}{:>8.4} {:>8.4} {:>8.4}\n",
         "MAE x, y, z (m)", o.mae_xyz_m[0], o.mae_xyz_m[1], o.mae_xyz_m[2]
     ));
-    for (name, sub) in [("near cuts", &o.near_cuts), ("away from cuts", &o.away_from_cuts)] {
+    for (name, sub) in [
+        ("near cuts", &o.near_cuts),
+        ("away from cuts", &o.away_from_cuts),
+    ] {
         if let Some(sub) = sub {
             s.push_str(&format!(
                 "{name:<22}{:>6} frames, median {} m, {} °\n",
