@@ -204,12 +204,10 @@ fn clip_segment(a: (f64, f64), b: (f64, f64), rect: [f64; 4]) -> Option<((f64, f
             }
         }
     }
-    (t0 <= t1).then(|| {
-        (
-            (a.0 + t0 * dx, a.1 + t0 * dy),
-            (a.0 + t1 * dx, a.1 + t1 * dy),
-        )
-    })
+    (t0 <= t1).then_some((
+        (a.0 + t0 * dx, a.1 + t0 * dy),
+        (a.0 + t1 * dx, a.1 + t1 * dy),
+    ))
 }
 
 /// The pieces of a polyline inside `rect` = `[x0, x1, y0, y1]` (plotters does not clip lines

@@ -1,7 +1,7 @@
 //! The drawing code shared by the PNG and SVG backends.
 
 use crate::figure::{
-    CdfPlot, Curve, Panel, Plot, TimePlot, TopDown, TopDownPlot, padded, top_down_view,
+    CdfPlot, Curve, Ends, Panel, Plot, TimePlot, TopDown, TopDownPlot, padded, top_down_view,
 };
 use crate::font::FONT;
 use plotters::coord::Shift;
@@ -268,11 +268,31 @@ where
         .margin_right(24)
         .x_label_area_size(48)
         .y_label_area_size(68);
-    if !p.thresholds.is_empty() {
-        // room for the threshold labels above the plot
-        builder.margin_top(26);
-    }
     let (x0, x1) = p.x_range;
+    // threshold labels sit above the plot, in as many rows as they need not to overlap
+    let label_font = (FONT, TICK_PX).into_font().color(&THRESHOLD);
+    let (area_w, _) = area.dim_in_pixel();
+    let plot_w = f64::from(area_w) - (8.0 + 24.0 + 68.0);
+    let mut dys: Vec<i32> = Vec::new();
+    let mut row_ends: Vec<i32> = Vec::new();
+    for (t, label) in &p.thresholds {
+        let (w, _) = area.estimate_text_size(label, &label_font)?;
+        let centre = ((t - x0) / (x1 - x0) * plot_w) as i32;
+        let (left, right) = (centre - w as i32 / 2, centre + w as i32 / 2);
+        let row = match row_ends.iter().position(|&end| left > end + 6) {
+            Some(r) => r,
+            None => {
+                row_ends.push(i32::MIN);
+                row_ends.len() - 1
+            }
+        };
+        row_ends[row] = right;
+        dys.push(-5 - 15 * row as i32);
+    }
+    if !row_ends.is_empty() {
+        // at least two rows, so that side-by-side panels keep the same height
+        builder.margin_top(11 + 15 * row_ends.len().max(2) as u32);
+    }
     let (y0, y1) = p.y_range;
     let mut chart = builder.build_cartesian_2d(x0..x1, y0..y1)?;
     let fx = |v: &f64| tick(*v, x1 - x0);
@@ -293,19 +313,16 @@ where
         .draw()?;
 
     let mut labelled = false;
-    for (t, label) in &p.thresholds {
+    for ((t, label), dy) in p.thresholds.iter().zip(&dys) {
         chart.draw_series(DashedLineSeries::new(
             vec![(*t, y0), (*t, y1)],
             6,
             4,
             THRESHOLD.stroke_width(1),
         ))?;
-        let style = (FONT, TICK_PX)
-            .into_font()
-            .color(&THRESHOLD)
-            .pos(Pos::new(HPos::Center, VPos::Bottom));
+        let style = label_font.pos(Pos::new(HPos::Center, VPos::Bottom));
         chart.draw_series(std::iter::once(
-            EmptyElement::at((*t, y1)) + Text::new(label.clone(), (0, -5), style),
+            EmptyElement::at((*t, y1)) + Text::new(label.clone(), (0, *dy), style),
         ))?;
     }
     for (i, curve) in p.curves.iter().enumerate() {
@@ -488,20 +505,20 @@ where
     draw_curve(&mut chart, &gt, GROUND_TRUTH, 2, bitmap)?;
 
     // ground-truth markers last, on top of estimates that start at the same place
-    let ends: Vec<((f64, f64), (f64, f64), RGBColor)> = p
+    let ends: Vec<(Ends, RGBColor)> = p
         .estimates
         .iter()
         .enumerate()
-        .filter_map(|(i, (_, e))| e.map(|(s, e)| (s, e, PALETTE[i % PALETTE.len()])))
-        .chain(p.gt_ends.map(|(s, e)| (s, e, GROUND_TRUTH)))
+        .filter_map(|(i, (_, e))| e.map(|e| (e, PALETTE[i % PALETTE.len()])))
+        .chain(p.gt_ends.map(|e| (e, GROUND_TRUTH)))
         .collect();
     if !ends.is_empty() {
-        chart.draw_series(ends.iter().map(|&(s, _, c)| {
+        chart.draw_series(ends.iter().map(|&((s, _), c)| {
             EmptyElement::at(s)
                 + Circle::new((0, 0), 8, WHITE.filled())
                 + Circle::new((0, 0), 6, c.filled())
         }))?;
-        chart.draw_series(ends.iter().map(|&(_, e, c)| {
+        chart.draw_series(ends.iter().map(|&((_, e), c)| {
             EmptyElement::at(e)
                 + Rectangle::new([(-7, -7), (7, 7)], WHITE.filled())
                 + Rectangle::new([(-5, -5), (5, 5)], c.filled())

@@ -244,7 +244,9 @@ mod tests {
     use super::*;
     use geom::Pose;
 
-    fn walk(n: usize) -> Result<(PoseEvaluation, Vec<[f64; 2]>, Vec<[f64; 2]>), geom::GeomError> {
+    type Walk = (PoseEvaluation, Vec<[f64; 2]>, Vec<[f64; 2]>);
+
+    fn walk(n: usize) -> Result<Walk, geom::GeomError> {
         let mut gt = Vec::with_capacity(n);
         let mut est = Vec::with_capacity(n);
         for i in 0..n {

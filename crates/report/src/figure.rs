@@ -253,6 +253,29 @@ impl Figure {
             Figure::ErrorOverTime(f) => Plot::Time(prepare_time(f)?),
             Figure::TopDown(f) => Plot::TopDown(prepare_top_down(f)?),
         };
+        // values near f64::MAX overflow the padded axes; plotters cannot lay out such an axis
+        let axes: Vec<(f64, f64)> = match &plot {
+            Plot::Cdf(p) => p
+                .panels
+                .iter()
+                .flat_map(|q| [q.x_range, q.y_range])
+                .collect(),
+            Plot::Time(p) => p
+                .panels
+                .iter()
+                .flat_map(|q| [q.x_range, q.y_range])
+                .collect(),
+            Plot::TopDown(p) => vec![(p.bounds[0], p.bounds[1]), (p.bounds[2], p.bounds[3])],
+        };
+        if !axes
+            .iter()
+            .all(|(a, b)| a.is_finite() && b.is_finite() && a < b)
+        {
+            return Err(ReportError::BadInput(format!(
+                "{}: values too large to plot",
+                path.display()
+            )));
+        }
         Ok(Prepared {
             size: self.size(),
             plot,
@@ -272,6 +295,9 @@ pub(crate) enum Plot {
     Time(TimePlot),
     TopDown(TopDownPlot),
 }
+
+/// First and last finite point of a track.
+pub(crate) type Ends = ((f64, f64), (f64, f64));
 
 /// One curve, already in plot coordinates.
 pub(crate) struct Curve {
@@ -310,8 +336,8 @@ pub(crate) struct TimePlot {
 pub(crate) struct TopDownPlot {
     pub(crate) title: String,
     pub(crate) ground_truth: Vec<Vec<(f64, f64)>>,
-    pub(crate) gt_ends: Option<((f64, f64), (f64, f64))>,
-    pub(crate) estimates: Vec<(Curve, Option<((f64, f64), (f64, f64))>)>,
+    pub(crate) gt_ends: Option<Ends>,
+    pub(crate) estimates: Vec<(Curve, Option<Ends>)>,
     pub(crate) links: Vec<[(f64, f64); 2]>,
     /// The padded view, `[x0, x1, y0, y1]`.
     pub(crate) bounds: [f64; 4],
@@ -599,7 +625,7 @@ fn prepare_time(f: &ErrorOverTime) -> Result<TimePlot> {
     })
 }
 
-fn ends(points: &[[f64; 2]]) -> Option<((f64, f64), (f64, f64))> {
+fn ends(points: &[[f64; 2]]) -> Option<Ends> {
     let finite = |p: &&[f64; 2]| p[0].is_finite() && p[1].is_finite();
     let first = points.iter().find(finite)?;
     let last = points.iter().rev().find(finite)?;
@@ -669,7 +695,7 @@ fn prepare_top_down(f: &TopDown) -> Result<TopDownPlot> {
             .flat_map(|s| clip_polyline(s, rect))
             .collect()
     };
-    let clip_ends = |e: Option<((f64, f64), (f64, f64))>| e.filter(|(s, e)| inside(s) && inside(e));
+    let clip_ends = |e: Option<Ends>| e.filter(|(s, e)| inside(s) && inside(e));
     let outside: usize = f
         .estimates
         .iter()
@@ -846,6 +872,14 @@ mod tests {
         let all_nan = [Series::new("n", vec![f64::NAN; 3])];
         assert!(error_cdf("t", &all_nan, &[]).to_png().is_err());
         Ok(())
+    }
+
+    #[test]
+    fn huge_values_are_an_error_not_a_hang() {
+        let huge = [Series::new("h", vec![0.0, f64::MAX])];
+        assert!(error_over_time("t", &huge, &[], None).to_png().is_err());
+        let far = [[0.0, 0.0], [f64::MAX, -f64::MAX]];
+        assert!(trajectory_top_down("t", &far, &[], false).to_png().is_err());
     }
 
     #[test]

@@ -171,7 +171,7 @@ impl HtmlReport {
                 out.push_str(&format!("<h2>{}</h2>\n", escape(&s.heading)));
             }
             for b in &s.blocks {
-                render_block(&mut out, b);
+                render_block(&mut out, b, &s.heading);
             }
             out.push_str("</section>\n");
         }
@@ -189,7 +189,7 @@ impl HtmlReport {
     }
 }
 
-fn render_block(out: &mut String, b: &Block) {
+fn render_block(out: &mut String, b: &Block, heading: &str) {
     match b {
         Block::Paragraph(text) => {
             for para in text.split("\n\n").filter(|p| !p.trim().is_empty()) {
@@ -209,7 +209,8 @@ fn render_block(out: &mut String, b: &Block) {
         }
         Block::Table(t) => {
             out.push_str("<div class=\"table-wrap\">\n");
-            out.push_str(&t.to_html());
+            // a caption repeating the section heading just above it is noise
+            out.push_str(&t.html(t.title != heading));
             out.push_str("</div>\n");
         }
         Block::Svg { svg, caption } => {

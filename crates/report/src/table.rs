@@ -49,7 +49,7 @@ impl Table {
             .unwrap_or(0)
     }
 
-    fn cell<'a>(row: &'a [String], c: usize) -> &'a str {
+    fn cell(row: &[String], c: usize) -> &str {
         row.get(c).map(String::as_str).unwrap_or("")
     }
 
@@ -116,11 +116,16 @@ impl Table {
 
     /// An HTML `<table>` (with the title as its caption); every cell is escaped.
     pub fn to_html(&self) -> String {
+        self.html(true)
+    }
+
+    /// [`Table::to_html`], leaving out the caption when `caption` is false.
+    pub(crate) fn html(&self, caption: bool) -> String {
         let n = self.columns();
         let numeric: Vec<bool> = (0..n).map(|c| self.numeric(c)).collect();
         let class = |c: usize| if numeric[c] { " class=\"num\"" } else { "" };
         let mut out = String::from("<table>\n");
-        if !self.title.is_empty() {
+        if caption && !self.title.is_empty() {
             out.push_str(&format!("<caption>{}</caption>\n", escape(&self.title)));
         }
         if !self.headers.is_empty() {
