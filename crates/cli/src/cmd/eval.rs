@@ -73,6 +73,8 @@ pub struct EvalOutput {
     jitter_m: f64,
     smoothness_est: Option<Smoothness>,
     smoothness_gt: Option<Smoothness>,
+    /// Estimate minus ground truth: positive means the estimate steps more, or more unevenly.
+    smoothness_diff: Option<Smoothness>,
     matched_by: MatchedBy,
     gt_frames: usize,
     est_frames: usize,
@@ -124,16 +126,17 @@ impl EvalArgs {
 
 /// Runs `indoorloc eval`.
 pub fn run(args: &EvalArgs) -> Result<()> {
-    let out = evaluate(args)?;
+    let (out, ev) = evaluate(args)?;
     if args.json {
         print_json(&out)
     } else {
-        print_text(&human_table(&out))
+        print_text(&human_text(&out, &ev, args.cut_window))
     }
 }
 
-/// Reads, pairs and compares the poses, writes the optional outputs, and returns the figures.
-pub fn evaluate(args: &EvalArgs) -> Result<EvalOutput> {
+/// Reads, pairs and compares the poses, writes the optional outputs, and returns the figures
+/// with the per-frame evaluation behind them.
+pub fn evaluate(args: &EvalArgs) -> Result<(EvalOutput, PoseEvaluation)> {
     let start = Instant::now();
     let (gt_format, gt) = read_poses(&args.gt, args.gt_format)?;
     let (est_format, est) = read_poses(&args.est, args.est_format)?;
@@ -187,6 +190,10 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalOutput> {
         jitter_m: ev.jitter_m,
         smoothness_est: ev.smoothness_est,
         smoothness_gt: ev.smoothness_gt,
+        smoothness_diff: ev
+            .smoothness_est
+            .zip(ev.smoothness_gt)
+            .map(|(e, g)| e.minus(&g)),
         matched_by: matching.by,
         gt_frames: gt.len(),
         est_frames: est.len(),
@@ -231,7 +238,7 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalOutput> {
         out.report = Some(path);
     }
     out.seconds = start.elapsed().as_secs_f64();
-    Ok(out)
+    Ok((out, ev))
 }
 
 fn cut_table(near: &Subset, away: &Subset, window: u64) -> report::Table {
@@ -335,48 +342,25 @@ fn subset(ev: &PoseEvaluation, idx: &[usize]) -> Subset {
     }
 }
 
-fn human_table(o: &EvalOutput) -> String {
-    let mut s = String::new();
-    s.push_str(&format!(
-        "{} frames matched by {:?} ({} ground truth, {} estimates, {} unmatched)\n",
-        o.frames, o.matched_by, o.gt_frames, o.est_frames, o.unmatched_est
-    ));
-    s.push_str(&format!(
-        "{:<22}{:>12}{:>12}\n",
-        "", "position m", "rotation °"
-    ));
-    for (name, p, r) in [
-        ("median", o.median_pos_m, o.median_rot_deg),
-        ("mean", o.mean_pos_m, o.mean_rot_deg),
-        ("rmse", o.rmse_pos_m, o.rmse_rot_deg),
-        ("max", o.max_pos_m, o.max_rot_deg),
-    ] {
-        s.push_str(&format!("{name:<22}{p:>12.4}{r:>12.3}\n"));
+fn human_text(o: &EvalOutput, ev: &PoseEvaluation, cut_window: u64) -> String {
+    let mut text = format!(
+        "{} frames paired by {} ({} ground truth, {} estimates, {} unpaired)\n\n",
+        o.frames,
+        match o.matched_by {
+            MatchedBy::Name => "name",
+            MatchedBy::Time => "time",
+        },
+        o.gt_frames,
+        o.est_frames,
+        o.unmatched_est
+    );
+    text.push_str(&report::pose_summary_table(ev).to_text());
+    if let (Some(near), Some(away)) = (&o.near_cuts, &o.away_from_cuts) {
+        text.push('\n');
+        text.push_str(&cut_table(near, away, cut_window).to_text());
     }
-    for (name, v) in [
-        ("within 0.25 m, 2°", o.acc_25cm_2deg),
-        ("within 0.5 m, 5°", o.acc_50cm_5deg),
-        ("within 5 m, 10°", o.acc_5m_10deg),
-    ] {
-        s.push_str(&format!("{name:<22}{:>11.1}%\n", v * 100.0));
+    if let Some(path) = &o.report {
+        text.push_str(&format!("\nreport: {}\n", path.display()));
     }
-    s.push_str(&format!(
-        "{:<22}{:>8.4} {:>8.4} {:>8.4}\n",
-        "MAE x, y, z (m)", o.mae_xyz_m[0], o.mae_xyz_m[1], o.mae_xyz_m[2]
-    ));
-    for (name, sub) in [
-        ("near cuts", &o.near_cuts),
-        ("away from cuts", &o.away_from_cuts),
-    ] {
-        if let Some(sub) = sub {
-            s.push_str(&format!(
-                "{name:<22}{:>6} frames, median {} m, {} °\n",
-                sub.frames,
-                sub.median_pos_m.map_or("-".into(), |v| format!("{v:.4}")),
-                sub.median_rot_deg.map_or("-".into(), |v| format!("{v:.3}")),
-            ));
-        }
-    }
-    s.push_str(&format!("{:<22}{:>11.3}s\n", "time", o.seconds));
-    s
+    text
 }
