@@ -163,24 +163,9 @@ fn pose_line(path: &Path, frame: &PoseFrame) -> Result<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_util::{put, shared, tmp};
     use geom::rotation::rotation_angle;
     use nalgebra::{Matrix3, Point3};
-    use std::path::PathBuf;
-
-    const PEER: &str = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/tools/peers/testdata/traj/"
-    );
-
-    fn tmp() -> Result<tempfile::TempDir> {
-        tempfile::tempdir().map_err(|e| DataError::io("tempdir", e))
-    }
-
-    fn put(dir: &Path, name: &str, text: &str) -> Result<PathBuf> {
-        let p = dir.join(name);
-        std::fs::write(&p, text).map_err(|e| DataError::io(&p, e))?;
-        Ok(p)
-    }
 
     #[test]
     fn stored_quaternion_is_world_to_camera() -> Result<()> {
@@ -226,7 +211,7 @@ mod tests {
 
     #[test]
     fn reads_peer_reference_list() -> Result<()> {
-        let traj = read(Path::new(&format!("{PEER}gt_posenet.txt")))?;
+        let traj = read(&shared("tools/peers/testdata/traj/gt_posenet.txt"))?;
         assert_eq!(traj.len(), 120);
         let f = &traj.frames[0];
         assert_eq!(f.name, "seq1/frame00000.png");
@@ -245,7 +230,7 @@ mod tests {
         // gt.tum and gt_posenet.txt, so read as a Cambridge list its rotations are the inverses
         // of gt.tum's. metrics.py compares gt and estimate lists in one convention, and the
         // angle of R_gtᵀ R_est equals that of R_gt R_estᵀ, so its error figures are unaffected.
-        let tum = crate::tum::read(Path::new(&format!("{PEER}gt.tum")))?;
+        let tum = crate::tum::read(&shared("tools/peers/testdata/traj/gt.tum"))?;
         for (a, b) in traj.frames.iter().zip(&tum.frames) {
             assert_eq!(a.pose.position(), b.pose.position());
             assert!(rotation_angle(&(a.pose.rotation * b.pose.rotation)) < 1e-9);

@@ -486,21 +486,8 @@ fn images_text(path: &Path, traj: &Trajectory) -> Result<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_util::{geo, put, tmp};
     use nalgebra::Vector3;
-
-    fn tmp() -> Result<tempfile::TempDir> {
-        tempfile::tempdir().map_err(|e| DataError::io("tempdir", e))
-    }
-
-    fn put(dir: &Path, name: &str, text: &str) -> Result<PathBuf> {
-        let p = dir.join(name);
-        std::fs::write(&p, text).map_err(|e| DataError::io(&p, e))?;
-        Ok(p)
-    }
-
-    fn geo<T>(r: geom::Result<T>) -> Result<T> {
-        r.map_err(|e| DataError::invalid("test", e.to_string()))
-    }
 
     fn err_text<T>(r: Result<T>) -> String {
         r.err().map(|e| e.to_string()).unwrap_or_default()

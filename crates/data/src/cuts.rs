@@ -62,7 +62,7 @@ mod tests {
 
     #[test]
     fn reads_all_three_forms() -> Result<()> {
-        let dir = tempfile::tempdir().map_err(|e| DataError::io("tmp", e))?;
+        let dir = crate::test_util::tmp()?;
         let p = dir.path().join("cuts.csv");
         write(&[30, 10, 20], &p)?;
         assert_eq!(read(&p)?, vec![10, 20, 30]);

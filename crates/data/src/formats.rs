@@ -198,16 +198,11 @@ fn detect_file(path: &Path) -> Result<Format> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn write(dir: &Path, name: &str, content: &str) -> Result<std::path::PathBuf> {
-        let p = dir.join(name);
-        std::fs::write(&p, content).map_err(|e| DataError::io(&p, e))?;
-        Ok(p)
-    }
+    use crate::test_util::{put, shared_data};
 
     #[test]
     fn detects_text_formats_from_content() -> Result<()> {
-        let tmp = tempfile::tempdir().map_err(|e| DataError::io("tmp", e))?;
+        let tmp = crate::test_util::tmp()?;
         let d = tmp.path();
         let cases = [
             ("a.txt", "# tum\n1.0 0 0 0 0 0 0 1\n", Format::Tum),
@@ -230,29 +225,28 @@ mod tests {
             ("f.json", "{\n \"frames\": []\n}\n", Format::Nerf),
         ];
         for (name, content, want) in cases {
-            let p = write(d, name, content)?;
+            let p = put(d, name, content)?;
             assert_eq!(detect(&p)?, want, "{name}");
         }
-        let p = write(d, "g.txt", "hello world\n")?;
+        let p = put(d, "g.txt", "hello world\n")?;
         assert!(detect(&p).unwrap_err().to_string().contains("g.txt"));
-        let p = write(d, "h.txt", "\n# only a comment\n")?;
+        let p = put(d, "h.txt", "\n# only a comment\n")?;
         assert!(detect(&p).unwrap_err().to_string().contains("empty"));
         Ok(())
     }
 
     #[test]
     fn detects_real_folders() -> Result<()> {
-        let shared = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"));
         assert_eq!(
-            detect(&shared.join("7scenes_stairs_sample/7scenes_layout"))?,
+            detect(&shared_data("7scenes_stairs_sample/7scenes_layout"))?,
             Format::SevenScenes
         );
         assert_eq!(
-            detect(&shared.join("7scenes_stairs_sample/7scenes_layout/seq-01"))?,
+            detect(&shared_data("7scenes_stairs_sample/7scenes_layout/seq-01"))?,
             Format::SevenScenes
         );
-        assert_eq!(detect(&shared.join("fox_posed"))?, Format::Nerf);
-        assert!(detect(&shared.join("fox_posed/images")).is_err());
+        assert_eq!(detect(&shared_data("fox_posed"))?, Format::Nerf);
+        assert!(detect(&shared_data("fox_posed/images")).is_err());
         Ok(())
     }
 

@@ -123,7 +123,7 @@ mod tests {
 
     #[test]
     fn atomic_write_replaces_whole_file() -> Result<()> {
-        let dir = tempfile::tempdir().map_err(|e| DataError::io("tmp", e))?;
+        let dir = crate::test_util::tmp()?;
         let p = dir.path().join("sub/a.txt");
         write_text_atomic(&p, "one")?;
         write_text_atomic(&p, "two")?;
@@ -150,7 +150,7 @@ mod tests {
 
     #[test]
     fn binary_is_not_text() -> Result<()> {
-        let dir = tempfile::tempdir().map_err(|e| DataError::io("tmp", e))?;
+        let dir = crate::test_util::tmp()?;
         let p = dir.path().join("b");
         std::fs::write(&p, [0xff, 0xfe, 0x00]).map_err(|e| DataError::io(&p, e))?;
         assert!(

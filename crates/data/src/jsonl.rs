@@ -85,7 +85,7 @@ mod tests {
 
     #[test]
     fn reads_localize_output_and_round_trips() -> Result<()> {
-        let dir = tempfile::tempdir().map_err(|e| DataError::io("tmp", e))?;
+        let dir = crate::test_util::tmp()?;
         let p = dir.path().join("est.jsonl");
         std::fs::write(
             &p,
@@ -110,7 +110,7 @@ mod tests {
 
     #[test]
     fn bad_lines_name_the_line() -> Result<()> {
-        let dir = tempfile::tempdir().map_err(|e| DataError::io("tmp", e))?;
+        let dir = crate::test_util::tmp()?;
         let p = dir.path().join("bad.jsonl");
         for (content, needle) in [
             (

@@ -6,6 +6,26 @@
 //! (x right, y down, z forward), metres where the format has metres, quaternions `w, x, y, z`.
 //! Every writer converts back to the format's own convention. Errors name the file and, for text
 //! formats, the line.
+//!
+//! # Entry points
+//! - [`formats::read`] / [`formats::detect`]: any supported format, told from its content.
+//! - One module per format with `read` and `write`: [`native`], [`sevenscenes`], [`cambridge`],
+//!   [`tum`], [`colmap`], [`nerf`], [`robotlog`], [`jsonl`].
+//! - [`matching::match_frames`]: pairs estimates with ground truth by name or time.
+//! - [`frames::open`]: image folders and video files as streams of frames.
+//!
+//! ```
+//! use data::formats::{self, Format};
+//! let dir = tempfile::tempdir()?;
+//! let path = dir.path().join("groundtruth.txt");
+//! // TUM: timestamp tx ty tz qx qy qz qw, camera-to-world.
+//! std::fs::write(&path, "# tum\n0.5 1 2 3 0 0 0 1\n")?;
+//! assert_eq!(formats::detect(&path)?, Format::Tum);
+//! let traj = formats::read(&path, None)?;
+//! assert_eq!(traj.frames[0].pose.position(), [1.0, 2.0, 3.0]);
+//! assert_eq!(traj.frames[0].t, Some(0.5));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 #![deny(missing_docs)]
 
 pub mod cambridge;
@@ -22,6 +42,8 @@ pub mod native;
 pub mod nerf;
 pub mod robotlog;
 pub mod sevenscenes;
+#[cfg(test)]
+mod test_util;
 mod trajectory;
 pub mod tum;
 

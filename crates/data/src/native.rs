@@ -795,19 +795,7 @@ fn write_toml<T: Serialize>(path: &Path, value: &T) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Geometry errors as data errors, for `?` in tests.
-    fn geo<T>(r: geom::Result<T>) -> Result<T> {
-        r.map_err(|e| DataError::invalid("test", e.to_string()))
-    }
-
-    fn tmp() -> Result<tempfile::TempDir> {
-        tempfile::tempdir().map_err(|e| DataError::io("tempdir", e))
-    }
-
-    fn write(path: &Path, text: &str) -> Result<()> {
-        std::fs::write(path, text).map_err(|e| DataError::io(path, e))
-    }
+    use crate::test_util::{geo, put, tmp};
 
     fn info() -> DatasetInfo {
         DatasetInfo {
@@ -885,12 +873,12 @@ mod tests {
     #[test]
     fn hand_written_poses_csv() -> Result<()> {
         let dir = tmp()?;
-        let p = dir.path().join(POSES_CSV);
         // Columns in another order, an extra column, spaces. Frame 7 is a camera at (1, 2, 1.5)
         // rotated 90° about z: q = (cos 45°, 0, 0, sin 45°), so R maps the camera's x axis to
         // world +y (R = [0 -1 0; 1 0 0; 0 0 1]).
-        write(
-            &p,
+        put(
+            dir.path(),
+            POSES_CSV,
             "seq, frame, t, x, y, z, qw, qx, qy, qz, note\n\
              walk1, 7, 0.5, 1, 2, 1.5, 0.7071067811865476, 0, 0, 0.7071067811865476, hi\n",
         )?;
@@ -967,8 +955,7 @@ mod tests {
 
     fn poses_error(text: &str) -> Result<String> {
         let dir = tmp()?;
-        let p = dir.path().join(POSES_CSV);
-        write(&p, text)?;
+        let p = put(dir.path(), POSES_CSV, text)?;
         match read(&p) {
             Ok(_) => Ok(String::new()),
             Err(e) => Ok(e.to_string()),
@@ -1037,21 +1024,29 @@ mod tests {
     fn bad_splits_and_labels_are_errors() -> Result<()> {
         let dir = tmp()?;
         write_dataset(dir.path())?;
-        let splits_path = dir.path().join(SPLITS_TOML);
         let open_err = || NativeDataset::open(dir.path()).err().map(|e| e.to_string());
-        write(&splits_path, "train = [\"seq0\", \"nope\"]\n")?;
+        put(dir.path(), SPLITS_TOML, "train = [\"seq0\", \"nope\"]\n")?;
         let e = open_err().unwrap_or_default();
         assert!(e.contains(SPLITS_TOML) && e.contains("'nope'"), "{e}");
-        write(&splits_path, "train = [\"seq0\"]\ntest = [\"seq0\"]\n")?;
+        put(
+            dir.path(),
+            SPLITS_TOML,
+            "train = [\"seq0\"]\ntest = [\"seq0\"]\n",
+        )?;
         let e = open_err().unwrap_or_default();
         assert!(e.contains("both train and test"), "{e}");
-        write(&splits_path, "train = [\"seq0\"]\ntset = [\"seq1\"]\n")?;
+        put(
+            dir.path(),
+            SPLITS_TOML,
+            "train = [\"seq0\"]\ntset = [\"seq1\"]\n",
+        )?;
         let e = open_err().unwrap_or_default();
         assert!(e.contains(&format!("{SPLITS_TOML}:2")), "{e}");
-        write(&splits_path, "train = [\"seq0\"]\n")?;
+        put(dir.path(), SPLITS_TOML, "train = [\"seq0\"]\n")?;
         assert!(open_err().is_none());
-        write(
-            &dir.path().join(LABELS_CSV),
+        put(
+            dir.path(),
+            LABELS_CSV,
             "frame,building,floor,corridor,direction\n99,a,b,c,d\n",
         )?;
         let e = open_err().unwrap_or_default();
@@ -1082,19 +1077,31 @@ mod tests {
         write_dataset(dir.path())?;
         let p = dir.path().join(DATASET_TOML);
         let text = read_text(&p)?;
-        write(&p, &text.replace("dof = 6", "dof = 4"))?;
+        put(
+            dir.path(),
+            DATASET_TOML,
+            &text.replace("dof = 6", "dof = 4"),
+        )?;
         let e = NativeDataset::open(dir.path())
             .err()
             .map(|e| e.to_string())
             .unwrap_or_default();
         assert!(e.contains(DATASET_TOML) && e.contains("dof"), "{e}");
-        write(&p, &text.replace("fx = 500.0", "fx = -500.0"))?;
+        put(
+            dir.path(),
+            DATASET_TOML,
+            &text.replace("fx = 500.0", "fx = -500.0"),
+        )?;
         let e = NativeDataset::open(dir.path())
             .err()
             .map(|e| e.to_string())
             .unwrap_or_default();
         assert!(e.contains("camera"), "{e}");
-        write(&p, &text.replace("distortion", "distorsion"))?;
+        put(
+            dir.path(),
+            DATASET_TOML,
+            &text.replace("distortion", "distorsion"),
+        )?;
         let e = NativeDataset::open(dir.path())
             .err()
             .map(|e| e.to_string())

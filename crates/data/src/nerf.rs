@@ -374,26 +374,8 @@ fn camera_json(c: &Camera) -> Map<String, Value> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_util::{geo, put, shared_data, tmp};
     use nalgebra::{Matrix3, Vector3};
-
-    fn tmp() -> Result<tempfile::TempDir> {
-        tempfile::tempdir().map_err(|e| DataError::io("tempdir", e))
-    }
-
-    fn put(dir: &Path, text: &str) -> Result<PathBuf> {
-        let p = dir.join(TRANSFORMS_JSON);
-        std::fs::write(&p, text).map_err(|e| DataError::io(&p, e))?;
-        Ok(p)
-    }
-
-    fn geo<T>(r: geom::Result<T>) -> Result<T> {
-        r.map_err(|e| DataError::invalid("test", e.to_string()))
-    }
-
-    const FOX: &str = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/data/fox_posed/transforms.json"
-    );
 
     #[test]
     fn hand_checked_frames() -> Result<()> {
@@ -406,6 +388,7 @@ mod tests {
         // OpenCV: x = (0, 1, 0), y = (0, 0, −1), z = (−1, 0, 0).
         let p = put(
             dir.path(),
+            TRANSFORMS_JSON,
             r#"{
               "camera_angle_x": 1.5707963267948966, "w": 200, "h": 100,
               "aabb_scale": 16, "scale": 0.33, "offset": [0.5, 0.5, 0.5],
@@ -447,7 +430,7 @@ mod tests {
 
     #[test]
     fn fox_scene_in_place() -> Result<()> {
-        let path = Path::new(FOX);
+        let path = &shared_data("fox_posed/transforms.json");
         let traj = read(path)?;
         assert_eq!(traj.len(), 67);
         assert_eq!(traj.frames[0].name, "0001");
@@ -539,12 +522,13 @@ mod tests {
                 frame(b)
             )
         };
-        let p = put(dir.path(), &text(60.0, 60.0))?;
+        let p = put(dir.path(), TRANSFORMS_JSON, &text(60.0, 60.0))?;
         assert_eq!(read(&p)?.camera.map(|c| c.fx), Some(60.0));
-        put(dir.path(), &text(60.0, 70.0))?;
+        put(dir.path(), TRANSFORMS_JSON, &text(60.0, 70.0))?;
         assert!(read(&p)?.camera.is_none());
         put(
             dir.path(),
+            TRANSFORMS_JSON,
             r#"{"camera_model": "OPENCV_FISHEYE", "w": 6, "h": 4, "fl_x": 5,
             "frames": [{"file_path": "x", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]}"#,
         )?;
@@ -580,7 +564,7 @@ mod tests {
             (String::new(), "transforms.json:1:"),
         ];
         for (text, msg) in cases {
-            let p = put(dir.path(), &text)?;
+            let p = put(dir.path(), TRANSFORMS_JSON, &text)?;
             let e = read(&p).err().map(|e| e.to_string()).unwrap_or_default();
             assert!(
                 e.contains(TRANSFORMS_JSON) && e.contains(msg),

@@ -234,17 +234,8 @@ fn pose3(x: f64, y: f64, heading: f64) -> geom::Result<Pose3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_util::{put, tmp};
     use nalgebra::Vector3;
-
-    fn tmp() -> Result<tempfile::TempDir> {
-        tempfile::tempdir().map_err(|e| DataError::io("tempdir", e))
-    }
-
-    fn put(dir: &Path, text: &str) -> Result<std::path::PathBuf> {
-        let p = dir.join("log.csv");
-        std::fs::write(&p, text).map_err(|e| DataError::io(&p, e))?;
-        Ok(p)
-    }
 
     #[test]
     fn hand_checked_log() -> Result<()> {
@@ -255,6 +246,7 @@ mod tests {
         // no covariance and a heading of 4 rad, wrapped to 4 − 2π.
         let p = put(
             dir.path(),
+            "log.csv",
             "x,theta,t,y,stt,sxx,syy\n\
              1.5,1.5707963267948966,0.10,2,0.01,0.02,0.03\n\
              3,0,0.20,4,0.01,0.2,0.01\n\
@@ -355,7 +347,7 @@ mod tests {
             ("t,x,y,theta\n", "", "no entries"),
         ];
         for (text, line, msg) in cases {
-            let p = put(dir.path(), text)?;
+            let p = put(dir.path(), "log.csv", text)?;
             let e = read_log(&p)
                 .err()
                 .map(|e| e.to_string())

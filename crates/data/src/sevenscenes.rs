@@ -325,24 +325,11 @@ fn matrix_text(pose: &Pose) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_util::{put, shared_data, tmp};
     use geom::rotation::rotation_angle;
     use nalgebra::{Matrix3, Point3, Vector3};
 
-    const STAIRS: &str = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/data/7scenes_stairs_sample/7scenes_layout"
-    );
-
-    fn tmp() -> Result<tempfile::TempDir> {
-        tempfile::tempdir().map_err(|e| DataError::io("tempdir", e))
-    }
-
-    fn put(path: &Path, text: &str) -> Result<()> {
-        if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir).map_err(|e| DataError::io(dir, e))?;
-        }
-        std::fs::write(path, text).map_err(|e| DataError::io(path, e))
-    }
+    const STAIRS: &str = "7scenes_stairs_sample/7scenes_layout";
 
     /// A camera at (1, 2, 3) looking along world +x, level, in 7-Scenes' own text layout.
     /// Its axes in the world are the columns of R: x_cam = −y, y_cam = −z, z_cam = +x.
@@ -355,13 +342,13 @@ mod tests {
     fn hand_written_scene() -> Result<()> {
         let dir = tmp()?;
         let scene = dir.path();
-        put(&scene.join("seq-02/frame-000000.pose.txt"), LOOKING_ALONG_X)?;
-        put(&scene.join("seq-02/frame-000000.color.png"), "not read")?;
-        put(&scene.join("seq-10/frame-000000.pose.txt"), LOOKING_ALONG_X)?;
-        put(&scene.join("seq-02/frame-000010.pose.txt"), LOOKING_ALONG_X)?;
-        put(&scene.join("seq-02/frame-000009.pose.txt"), LOOKING_ALONG_X)?;
-        put(&scene.join("TrainSplit.txt"), "sequence2\r\n")?;
-        put(&scene.join("TestSplit.txt"), "sequence10\n\n")?;
+        put(scene, "seq-02/frame-000000.pose.txt", LOOKING_ALONG_X)?;
+        put(scene, "seq-02/frame-000000.color.png", "not read")?;
+        put(scene, "seq-10/frame-000000.pose.txt", LOOKING_ALONG_X)?;
+        put(scene, "seq-02/frame-000010.pose.txt", LOOKING_ALONG_X)?;
+        put(scene, "seq-02/frame-000009.pose.txt", LOOKING_ALONG_X)?;
+        put(scene, "TrainSplit.txt", "sequence2\r\n")?;
+        put(scene, "TestSplit.txt", "sequence10\n\n")?;
         std::fs::create_dir_all(scene.join("empty")).map_err(|e| DataError::io("d", e))?;
 
         let traj = read(scene)?;
@@ -407,7 +394,7 @@ mod tests {
 
     #[test]
     fn reads_stairs_sample() -> Result<()> {
-        let scene = Path::new(STAIRS);
+        let scene = &shared_data(STAIRS);
         let traj = read(scene)?;
         assert_eq!(traj.len(), 12);
         let seqs: Vec<&str> = traj.frames.iter().map(|f| f.seq.as_str()).collect();
@@ -448,7 +435,7 @@ mod tests {
     #[test]
     fn round_trip() -> Result<()> {
         let dir = tmp()?;
-        let stairs = read(Path::new(STAIRS))?;
+        let stairs = read(&shared_data(STAIRS))?;
         let mut frames = stairs.frames.clone();
         for (i, pose) in crate::tum::tests::awkward_poses()?.into_iter().enumerate() {
             frames.push(PoseFrame {
@@ -555,13 +542,14 @@ mod tests {
             ("junk", "\u{1}\u{2}\n", ":1: '\u{1}\u{2}' is not a number"),
         ];
         for (name, text, want) in cases {
-            let p = dir
-                .path()
-                .join(format!("{name}/seq-01/frame-000000.pose.txt"));
-            put(&p, text)?;
+            let p = put(
+                dir.path(),
+                &format!("{name}/seq-01/frame-000000.pose.txt"),
+                text,
+            )?;
             put(
-                &dir.path()
-                    .join(format!("{name}/seq-01/frame-000001.pose.txt")),
+                dir.path(),
+                &format!("{name}/seq-01/frame-000001.pose.txt"),
                 id,
             )?;
             let msg = read(&dir.path().join(name))
@@ -571,8 +559,7 @@ mod tests {
             assert!(msg.starts_with(&p.display().to_string()), "{msg}");
             assert!(msg.contains(want), "{name}: {msg}");
         }
-        let empty = dir.path().join("empty/seq-01/frame-000000.pose.txt");
-        put(&empty, "")?;
+        put(dir.path(), "empty/seq-01/frame-000000.pose.txt", "")?;
         let msg = read(&dir.path().join("empty"))
             .map(|_| ())
             .unwrap_err()
@@ -604,14 +591,14 @@ mod tests {
     #[test]
     fn malformed_split_files() -> Result<()> {
         let dir = tmp()?;
-        put(&dir.path().join("TrainSplit.txt"), "sequence1\nseq2\n")?;
-        put(&dir.path().join("TestSplit.txt"), "sequence3\n")?;
+        put(dir.path(), "TrainSplit.txt", "sequence1\nseq2\n")?;
+        put(dir.path(), "TestSplit.txt", "sequence3\n")?;
         let msg = read_split(dir.path()).unwrap_err().to_string();
         assert!(
             msg.contains("TrainSplit.txt:2: expected 'sequenceN'"),
             "{msg}"
         );
-        put(&dir.path().join("TrainSplit.txt"), "sequence1\nsequence3\n")?;
+        put(dir.path(), "TrainSplit.txt", "sequence1\nsequence3\n")?;
         let msg = read_split(dir.path()).unwrap_err().to_string();
         assert!(msg.contains("seq-03 is listed in both"), "{msg}");
         std::fs::remove_file(dir.path().join("TestSplit.txt"))

@@ -188,24 +188,11 @@ fn cmp_nan_last(a: f64, b: f64) -> std::cmp::Ordering {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::test_util::{put, shared, tmp};
     use geom::rotation::rotation_angle;
     use nalgebra::UnitQuaternion;
-    use std::path::PathBuf;
 
-    const PEER_GT: &str = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/tools/peers/testdata/traj/gt.tum"
-    );
-
-    fn tmp() -> Result<tempfile::TempDir> {
-        tempfile::tempdir().map_err(|e| DataError::io("tempdir", e))
-    }
-
-    fn put(dir: &Path, name: &str, text: &str) -> Result<PathBuf> {
-        let p = dir.join(name);
-        std::fs::write(&p, text).map_err(|e| DataError::io(&p, e))?;
-        Ok(p)
-    }
+    const PEER_GT: &str = "tools/peers/testdata/traj/gt.tum";
 
     #[test]
     fn hand_written_tum_file() -> Result<()> {
@@ -243,7 +230,7 @@ pub(crate) mod tests {
 
     #[test]
     fn reads_peer_reference_file() -> Result<()> {
-        let traj = read(Path::new(PEER_GT))?;
+        let traj = read(&shared(PEER_GT))?;
         assert_eq!(traj.len(), 120);
         let f = &traj.frames[0];
         assert_eq!(f.name, "1700000000.000000");
@@ -451,9 +438,8 @@ pub(crate) mod tests {
 
     #[test]
     fn associate_peer_files() -> Result<()> {
-        let gt = read(Path::new(PEER_GT))?;
-        let est_path = PEER_GT.replace("gt.tum", "est.tum");
-        let est = read(Path::new(&est_path))?;
+        let gt = read(&shared(PEER_GT))?;
+        let est = read(&shared(&PEER_GT.replace("gt.tum", "est.tum")))?;
         let times = |t: &Trajectory| t.frames.iter().filter_map(|f| f.t).collect::<Vec<_>>();
         let pairs = associate(&times(&gt), &times(&est), 0.01);
         // est.tum holds 114 of the 120 frames, stamps jittered by < 4 ms: all of them match,

@@ -186,15 +186,12 @@ fn cmp_numbers(a: &str, b: &str) -> Ordering {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_util::{shared_data, tmp};
 
     fn write_png(path: &Path, w: u32, h: u32, shade: u8) -> Result<()> {
         image::RgbImage::from_pixel(w, h, image::Rgb([shade, 0, 255 - shade]))
             .save_with_format(path, image::ImageFormat::Png)
             .map_err(|e| DataError::invalid(path, e.to_string()))
-    }
-
-    fn tempdir() -> Result<tempfile::TempDir> {
-        tempfile::tempdir().map_err(|e| DataError::io("tempdir", e))
     }
 
     #[test]
@@ -236,7 +233,7 @@ mod tests {
 
     #[test]
     fn frames_folder_in_natural_order_skipping_other_files() -> Result<()> {
-        let dir = tempdir()?;
+        let dir = tmp()?;
         for (i, name) in ["f10.png", "f1.png", "f2.png"].iter().enumerate() {
             write_png(&dir.path().join(name), 8 + i as u32, 5, 40 * i as u8)?;
         }
@@ -269,7 +266,7 @@ mod tests {
 
     #[test]
     fn frames_folder_nth_skips_without_decoding() -> Result<()> {
-        let dir = tempdir()?;
+        let dir = tmp()?;
         write_png(&dir.path().join("a1.png"), 2, 2, 0)?;
         // Corrupt, but never decoded: `nth` jumps over it.
         std::fs::write(dir.path().join("a2.png"), b"junk")
@@ -286,7 +283,7 @@ mod tests {
 
     #[test]
     fn frames_empty_folder_is_an_error_naming_it() -> Result<()> {
-        let dir = tempdir()?;
+        let dir = tmp()?;
         std::fs::write(dir.path().join("readme.md"), "x")
             .map_err(|e| DataError::io(dir.path(), e))?;
         let e = ImageFolder::open(dir.path())
@@ -306,7 +303,7 @@ mod tests {
 
     #[test]
     fn frames_corrupt_image_names_the_file_and_iteration_goes_on() -> Result<()> {
-        let dir = tempdir()?;
+        let dir = tmp()?;
         std::fs::write(
             dir.path().join("bad.png"),
             b"\x89PNG\r\n\x1a\nthis is not a png",
@@ -332,10 +329,7 @@ mod tests {
 
     #[test]
     fn frames_real_jpeg_folder_first_frames() -> Result<()> {
-        let dir = Path::new(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../../shared/data/fox_posed/images"
-        ));
+        let dir = &shared_data("fox_posed/images");
         let mut src = ImageFolder::open(dir)?;
         assert_eq!(src.len_hint(), Some(50));
         // Two frames only: a 1080x1920 JPEG takes a while to decode in a debug build.

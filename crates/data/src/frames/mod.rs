@@ -137,7 +137,7 @@ mod tests {
 
     #[test]
     fn frames_open_dispatches_and_names_the_path() -> Result<()> {
-        let dir = tempfile::tempdir().map_err(|e| DataError::io("tmp", e))?;
+        let dir = crate::test_util::tmp()?;
         let missing = dir.path().join("nothing-here.mp4");
         let e = open(&missing)
             .err()
@@ -182,7 +182,7 @@ mod tests {
     #[cfg(not(feature = "video"))]
     #[test]
     fn frames_video_without_feature_says_so() -> Result<()> {
-        let dir = tempfile::tempdir().map_err(|e| DataError::io("tmp", e))?;
+        let dir = crate::test_util::tmp()?;
         let p = dir.path().join("clip.mp4");
         std::fs::write(&p, b"x").map_err(|e| DataError::io(&p, e))?;
         let e = open(&p).err().map(|e| e.to_string()).unwrap_or_default();

@@ -412,16 +412,7 @@ impl FrameSource for VideoFile {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    const SHARED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared");
-
-    fn shared(rel: &str) -> PathBuf {
-        Path::new(SHARED).join(rel)
-    }
-
-    fn tempdir() -> Result<tempfile::TempDir> {
-        tempfile::tempdir().map_err(|e| DataError::io("tempdir", e))
-    }
+    use crate::test_util::{shared, tmp};
 
     /// Mean absolute difference of the green channels of two equal-size images.
     fn mean_diff(a: &image::RgbImage, b: &image::RgbImage) -> f64 {
@@ -544,7 +535,7 @@ mod tests {
 
     #[test]
     fn frames_video_errors_name_the_file() -> Result<()> {
-        let dir = tempdir()?;
+        let dir = tmp()?;
         let missing = dir.path().join("missing.mp4");
         let e = VideoFile::open(&missing)
             .err()
