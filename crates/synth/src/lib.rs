@@ -7,6 +7,11 @@
 #![deny(missing_docs)]
 
 mod error;
+pub mod import;
+pub mod procedural;
+pub mod render;
+pub mod trajectory;
+pub mod variants;
 pub mod world;
 
 pub use error::{Result, SynthError};
