@@ -14,6 +14,7 @@
 //! - [`Table`]: aligned text for terminals, HTML, JSON rows.
 //! - [`HtmlReport`]: a builder of one-file reports (sections, paragraphs, highlight cards,
 //!   tables, inline SVG and base64 PNG figures).
+//! - [`contact_sheet`]: a grid of labelled pictures in one PNG.
 //! - [`write_atomic`]: every file is written to a temporary name in the same folder, then renamed.
 //!
 //! # Conventions
@@ -50,6 +51,7 @@ mod figure;
 mod font;
 mod html;
 mod io;
+mod sheet;
 mod table;
 
 pub use error::{ReportError, Result};
@@ -60,6 +62,7 @@ pub use figure::{
 };
 pub use html::HtmlReport;
 pub use io::write_atomic;
+pub use sheet::{Tile, contact_sheet};
 pub use table::Table;
 
 #[doc(no_inline)]
