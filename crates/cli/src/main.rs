@@ -6,6 +6,7 @@
 
 mod cmd;
 mod output;
+mod progress;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -22,6 +23,8 @@ struct Cli {
 enum Command {
     /// Compare estimated poses with ground truth: error statistics, accuracy, plots.
     Eval(cmd::eval::EvalArgs),
+    /// Render a synthetic posed dataset of the built-in building or a model file.
+    Synth(cmd::synth::SynthArgs),
     /// Speed figures of each stage, beside the reference peer where one is installed.
     Bench(cmd::bench::BenchArgs),
 }
@@ -31,6 +34,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Eval(args) => cmd::eval::run(&args),
         Command::Bench(args) => cmd::bench::run(&args),
+        Command::Synth(args) => cmd::synth::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

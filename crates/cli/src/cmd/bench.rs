@@ -19,6 +19,8 @@ use std::time::Instant;
 pub enum Stage {
     /// `eval` on a long TUM trajectory pair, against NumPy/SciPy's metrics.py.
     Eval,
+    /// The synthetic renderer: frames/s per mode at 160x120 and 320x240, 1 thread and all.
+    Render,
 }
 
 /// Arguments of `indoorloc bench`.
@@ -29,6 +31,9 @@ pub struct BenchArgs {
     /// Frames in the synthetic trajectory of the eval benchmark.
     #[arg(long, default_value_t = 100_000)]
     frames: usize,
+    /// Frames rendered per mode, size and thread count in the render benchmark.
+    #[arg(long, default_value_t = 2000)]
+    render_frames: usize,
     /// Timed repetitions; the median is reported.
     #[arg(long, default_value_t = 3)]
     repeat: usize,
@@ -60,30 +65,68 @@ struct StageFigures {
     peer_note: Option<String>,
 }
 
+/// Renderer speed for one mode and size.
+#[derive(Debug, Serialize)]
+struct RenderFigures {
+    mode: String,
+    width: u32,
+    height: u32,
+    threads: usize,
+    frames: usize,
+    fps: f64,
+    ms_per_frame: f64,
+}
+
 #[derive(Debug, Serialize)]
 struct BenchOutput {
     stages: Vec<StageFigures>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    render: Vec<RenderFigures>,
 }
 
 /// Runs `indoorloc bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {
-    if args.repeat == 0 || args.frames < 2 {
-        bail!("--repeat must be at least 1 and --frames at least 2");
+    if args.repeat == 0 || args.frames < 2 || args.render_frames == 0 {
+        bail!("--repeat and --render-frames must be at least 1, --frames at least 2");
     }
     let stages = match args.stage {
         Some(s) => vec![s],
-        None => vec![Stage::Eval],
+        None => vec![Stage::Eval, Stage::Render],
     };
-    let mut out = BenchOutput { stages: Vec::new() };
+    let mut out = BenchOutput {
+        stages: Vec::new(),
+        render: Vec::new(),
+    };
     for stage in stages {
         match stage {
             Stage::Eval => out.stages.push(bench_eval(args)?),
+            Stage::Render => out.render = bench_render(args)?,
         }
     }
     if args.json {
         print_json(&out)
     } else {
-        let mut text = format!(
+        let mut text = String::new();
+        if !out.render.is_empty() {
+            text.push_str(&format!(
+                "{:<10}{:>10}{:>9}{:>10}{:>12}\n",
+                "render", "size", "threads", "frames/s", "ms/frame"
+            ));
+            for r in &out.render {
+                text.push_str(&format!(
+                    "{:<10}{:>10}{:>9}{:>10.0}{:>12.3}\n",
+                    r.mode,
+                    format!("{}x{}", r.width, r.height),
+                    r.threads,
+                    r.fps,
+                    r.ms_per_frame
+                ));
+            }
+        }
+        if out.stages.is_empty() {
+            return print_text(&text);
+        }
+        text.push_str(&format!(
             "{:<8}{:>9}{:>12}{:>16}{:>12}{:>10}\n",
             "stage", "frames", "ms", "ms +report", "peer ms", "ratio"
         );
@@ -105,6 +148,62 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         }
         print_text(&text)
     }
+}
+
+/// Renders a walk through the default building in every mode at two sizes, on one thread and on
+/// all of rayon's threads.
+fn bench_render(args: &BenchArgs) -> Result<Vec<RenderFigures>> {
+    use rayon::prelude::*;
+    use synth::render::{RenderMode, RenderOptions, RenderScene, Renderer};
+    let frames = args.render_frames;
+    let cfg = synth::dataset::SynthConfig::default();
+    let (world, _) = synth::dataset::build_world(&cfg)?;
+    let scene = RenderScene::new(&world)?;
+    let rig = synth::dataset::rig_of(cfg.camera);
+    let walk_cfg = synth::trajectory::WalkConfig {
+        rig: rig.clone(),
+        ..Default::default()
+    };
+    let walk = synth::trajectory::walk(&world, &walk_cfg, frames, cfg.seed)?;
+    let all = rayon::current_num_threads();
+    let mut figures = Vec::new();
+    for (w, h) in [(160u32, 120u32), (320, 240)] {
+        let camera = synth::trajectory::camera_for(&rig, w, h, cfg.seed);
+        for mode in [RenderMode::Shaded, RenderMode::Textured, RenderMode::Edges, RenderMode::Gradmag] {
+            let opts = RenderOptions {
+                mode,
+                ..RenderOptions::default()
+            };
+            for threads in [1, all] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .context("building a thread pool")?;
+                // Warm-up frame: first-use costs (distortion maps, buffers) are not the rate.
+                Renderer::new().render(&scene, &camera, &walk[0].pose, &opts, &[])?;
+                let start = Instant::now();
+                pool.install(|| {
+                    walk.par_iter().try_for_each_init(Renderer::new, |r, f| {
+                        r.render(&scene, &camera, &f.pose, &opts, &[]).map(|_| ())
+                    })
+                })?;
+                let secs = start.elapsed().as_secs_f64();
+                figures.push(RenderFigures {
+                    mode: mode.to_string(),
+                    width: w,
+                    height: h,
+                    threads,
+                    frames,
+                    fps: frames as f64 / secs,
+                    ms_per_frame: secs * 1e3 / frames as f64,
+                });
+                if all == 1 {
+                    break;
+                }
+            }
+        }
+    }
+    Ok(figures)
 }
 
 fn bench_eval(args: &BenchArgs) -> Result<StageFigures> {

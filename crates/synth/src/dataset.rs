@@ -1,0 +1,439 @@
+//! `indoorloc synth`: renders posed sequences of a world into a native dataset (DESIGN.md), with
+//! labels, depth, plane ids, gold scene cuts and splits by sequence; optionally also the 7-Scenes
+//! layout.
+//!
+//! Frames render in parallel (rayon, one [`Renderer`] per worker) and every random choice is
+//! seeded per sequence or per frame, so the same settings give byte-identical files whatever the
+//! thread count. Every file is written atomically; frames already on disk from an interrupted
+//! run are rendered again only when missing (`resume`), so a long job can be restarted.
+
+use crate::error::{Result, SynthError};
+use crate::import::{ImportOptions, load};
+use crate::procedural::default_world;
+use crate::render::{RenderMode, RenderOptions, RenderScene, Renderer};
+use crate::trajectory::{self, Direction, PosedFrame, Rig, WalkConfig};
+use crate::variants::{self, Crowd};
+use crate::world::{Variant, World};
+use data::native::{self, DatasetInfo, Generator, Label, Splits};
+use data::{PoseFrame, Trajectory};
+use geom::{Camera, Mount};
+use rayon::prelude::*;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Where the building comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum WorldSource {
+    /// The procedural default building with this layout seed.
+    Default {
+        /// Layout seed.
+        seed: u64,
+    },
+    /// A model file (OBJ, glTF, GLB).
+    File {
+        /// The model.
+        path: PathBuf,
+        /// Units and up axis.
+        options: ImportOptions,
+    },
+}
+
+/// How camera poses are drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Sampler {
+    /// Natural walks along the walk graph, one per sequence.
+    #[default]
+    Walk,
+    /// Walks joined by hard cuts to other places (gold cuts in `cuts.csv`).
+    WalkWithCuts,
+    /// Uniform random poses in free space.
+    Random,
+}
+
+/// Camera mounting of the sequences.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum CameraKind {
+    /// Hand-held / head-mounted, looking ahead (6-DoF dataset).
+    #[default]
+    Forward,
+    /// On a robot, looking up at the ceiling (3-DoF dataset).
+    Ceiling,
+}
+
+/// Everything that shapes a synthetic dataset.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SynthConfig {
+    /// The building.
+    pub world: WorldSource,
+    /// Forward or ceiling camera.
+    pub camera: CameraKind,
+    /// How poses are drawn.
+    pub sampler: Sampler,
+    /// Total frames.
+    pub frames: usize,
+    /// Number of sequences the frames are split into (splits are made of sequences).
+    pub sequences: usize,
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+    /// Render mode.
+    pub mode: RenderMode,
+    /// Appearance variant.
+    pub variant: Variant,
+    /// Seed of trajectories, variants and sensor noise.
+    pub seed: u64,
+    /// Write `depth/` (16-bit millimetres).
+    pub depth: bool,
+    /// Write `planes/` (8-bit dominant-plane ids).
+    pub planes: bool,
+    /// Keep frames already written by an interrupted run.
+    pub resume: bool,
+}
+
+impl Default for SynthConfig {
+    fn default() -> Self {
+        Self {
+            world: WorldSource::Default { seed: 1 },
+            camera: CameraKind::Forward,
+            sampler: Sampler::Walk,
+            frames: 600,
+            sequences: 6,
+            width: 320,
+            height: 240,
+            mode: RenderMode::Textured,
+            variant: Variant::Normal,
+            seed: 1,
+            depth: true,
+            planes: true,
+            resume: false,
+        }
+    }
+}
+
+/// What a run wrote.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SynthSummary {
+    /// Frames in the dataset.
+    pub frames: usize,
+    /// Frames rendered by this run (fewer than `frames` when resuming).
+    pub rendered: usize,
+    /// Seconds spent rendering and writing images.
+    pub render_seconds: f64,
+    /// Warnings (from importing a model).
+    pub warnings: Vec<String>,
+}
+
+/// Builds the world of `cfg` with its variant applied.
+pub fn build_world(cfg: &SynthConfig) -> Result<(World, Vec<String>)> {
+    let (mut world, warnings) = match &cfg.world {
+        WorldSource::Default { seed } => (default_world(*seed, cfg.variant), Vec::new()),
+        WorldSource::File { path, options } => {
+            let (w, report) = load(path, options)?;
+            (w, report.warnings)
+        }
+    };
+    variants::apply(&mut world, cfg.variant, cfg.seed);
+    Ok((world, warnings))
+}
+
+/// The camera rig of a camera kind.
+pub fn rig_of(kind: CameraKind) -> Rig {
+    match kind {
+        CameraKind::Forward => Rig::Forward {
+            height_m: [1.2, 1.8],
+            hfov_deg: [50.0, 70.0],
+        },
+        CameraKind::Ceiling => Rig::Ceiling {
+            height_m: 0.3,
+            hfov_deg: 90.0,
+        },
+    }
+}
+
+/// One frame to render: where, when, and which sequence.
+struct Shot {
+    seq: usize,
+    frame: PosedFrame,
+}
+
+/// Renders the dataset into `out`; `progress` is called with the number of frames done so far.
+pub fn run(cfg: &SynthConfig, out: &Path, progress: &(dyn Fn(usize) + Sync)) -> Result<SynthSummary> {
+    if cfg.frames == 0 || cfg.sequences == 0 || cfg.sequences > cfg.frames {
+        return Err(SynthError::Config(format!(
+            "need 1 ≤ sequences ≤ frames (got {} sequences, {} frames)",
+            cfg.sequences, cfg.frames
+        )));
+    }
+    if cfg.width < 8 || cfg.height < 8 {
+        return Err(SynthError::Config(format!(
+            "image size {}x{} is too small (at least 8x8)",
+            cfg.width, cfg.height
+        )));
+    }
+    let (mut world, warnings) = build_world(cfg)?;
+    let crowd = (cfg.variant == Variant::People).then(|| Crowd::new(&mut world, 12, cfg.seed));
+    let rig = rig_of(cfg.camera);
+    let camera = trajectory::camera_for(&rig, cfg.width, cfg.height, cfg.seed);
+    let (shots, cuts, fps) = plan_shots(&world, cfg, &rig)?;
+    let scene = RenderScene::new(&world)?;
+
+    for sub in ["frames", "depth", "planes"] {
+        let dir = out.join(sub);
+        std::fs::create_dir_all(&dir).map_err(|source| SynthError::Io { path: dir, source })?;
+    }
+    let done = AtomicUsize::new(0);
+    let rendered = AtomicUsize::new(0);
+    let start = std::time::Instant::now();
+    shots
+        .par_iter()
+        .enumerate()
+        .try_for_each_init(Renderer::new, |renderer, (index, shot)| -> Result<()> {
+            let frame_path = out.join("frames").join(format!("{index:06}.png"));
+            if !(cfg.resume && frame_path.is_file()) {
+                let opts = RenderOptions {
+                    mode: cfg.mode,
+                    seed: cfg.seed.wrapping_mul(1_000_003).wrapping_add(index as u64),
+                    ..RenderOptions::default()
+                };
+                let extra = crowd
+                    .as_ref()
+                    .map(|c| c.triangles_at(&world, shot.frame.t))
+                    .unwrap_or_default();
+                let img = renderer.render(&scene, &camera, &shot.frame.pose, &opts, &extra)?;
+                write_png(&frame_path, &encode_rgb(&img.rgb)?)?;
+                if cfg.depth {
+                    let path = out.join("depth").join(format!("{index:06}.png"));
+                    write_png(&path, &encode_depth_mm(&img.depth, cfg.width, cfg.height)?)?;
+                }
+                if cfg.planes {
+                    let path = out.join("planes").join(format!("{index:06}.png"));
+                    write_png(&path, &encode_planes(&img.plane, cfg.width, cfg.height)?)?;
+                }
+                rendered.fetch_add(1, Ordering::Relaxed);
+            }
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+            Ok(())
+        })?;
+    let render_seconds = start.elapsed().as_secs_f64();
+
+    write_metadata(cfg, out, &world, &camera, &shots, &cuts, fps)?;
+    Ok(SynthSummary {
+        frames: shots.len(),
+        rendered: rendered.into_inner(),
+        render_seconds,
+        warnings,
+    })
+}
+
+/// Draws the poses of every sequence: `(shots, gold cuts as frame indices, frame rate)`.
+fn plan_shots(world: &World, cfg: &SynthConfig, rig: &Rig) -> Result<(Vec<Shot>, Vec<u64>, f64)> {
+    let walk_cfg = WalkConfig {
+        rig: rig.clone(),
+        ..WalkConfig::default()
+    };
+    let mut shots = Vec::with_capacity(cfg.frames);
+    let mut cuts = Vec::new();
+    for seq in 0..cfg.sequences {
+        // Frames spread evenly over sequences; the first ones take the remainder.
+        let n = cfg.frames / cfg.sequences + usize::from(seq < cfg.frames % cfg.sequences);
+        let seed = cfg.seed.wrapping_mul(7919).wrapping_add(seq as u64);
+        let frames = match cfg.sampler {
+            Sampler::Walk => trajectory::walk(world, &walk_cfg, n, seed)?,
+            Sampler::Random => trajectory::random_poses(world, rig, n, seed)?,
+            Sampler::WalkWithCuts => {
+                let segments = (n / 40).clamp(2, 8);
+                let per_segment = n.div_ceil(segments);
+                let (mut frames, seq_cuts) =
+                    trajectory::with_cuts(world, &walk_cfg, segments, per_segment, seed)?;
+                frames.truncate(n);
+                let base = shots.len() as u64;
+                cuts.extend(seq_cuts.into_iter().filter(|&c| c < n).map(|c| base + c as u64));
+                frames
+            }
+        };
+        if seq > 0 {
+            // A new sequence starts somewhere else: a cut in a continuous video of all of them.
+            cuts.push(shots.len() as u64);
+        }
+        shots.extend(frames.into_iter().map(|frame| Shot { seq, frame }));
+    }
+    cuts.sort_unstable();
+    cuts.dedup();
+    Ok((shots, cuts, walk_cfg.fps))
+}
+
+fn seq_name(seq: usize) -> String {
+    format!("walk-{seq:02}")
+}
+
+fn write_metadata(
+    cfg: &SynthConfig,
+    out: &Path,
+    world: &World,
+    camera: &Camera,
+    shots: &[Shot],
+    cuts: &[u64],
+    fps: f64,
+) -> Result<()> {
+    let frames: Vec<PoseFrame> = shots
+        .iter()
+        .enumerate()
+        .map(|(i, s)| PoseFrame {
+            name: native::frame_name(i as u64),
+            seq: seq_name(s.seq),
+            t: Some(s.frame.t),
+            pose: s.frame.pose,
+        })
+        .collect();
+    let labels: Vec<Label> = shots
+        .iter()
+        .enumerate()
+        .filter_map(|(i, s)| {
+            let place = s.frame.place.as_ref()?;
+            Some(Label {
+                frame: i as u64,
+                building: format!("B{}", place.building),
+                floor: format!("F{}", place.storey),
+                corridor: place.corridor.map_or_else(|| "none".into(), |c| format!("C{c}")),
+                direction: match s.frame.direction {
+                    Some(Direction::Forward) => "fwd".into(),
+                    Some(Direction::Backward) => "back".into(),
+                    None => "none".into(),
+                },
+            })
+        })
+        .collect();
+    let seqs: Vec<String> = (0..cfg.sequences).map(seq_name).collect();
+    let splits: Splits = native::split_by_sequence(&seqs, 0.15, 0.15, cfg.seed);
+    let mut settings = BTreeMap::new();
+    settings.insert("world".into(), world.name.clone());
+    settings.insert("mode".into(), cfg.mode.to_string());
+    settings.insert("variant".into(), cfg.variant.name().into());
+    settings.insert("sampler".into(), format!("{:?}", cfg.sampler).to_lowercase());
+    let info = DatasetInfo {
+        name: format!("{} ({}, {})", world.name, cfg.mode, cfg.variant.name()),
+        dof: match cfg.camera {
+            CameraKind::Forward => 6,
+            CameraKind::Ceiling => 3,
+        },
+        units: "m".into(),
+        frame_rate: fps,
+        mount: match cfg.camera {
+            CameraKind::Forward => Mount::Forward,
+            CameraKind::Ceiling => Mount::Ceiling,
+        },
+        camera: native::CameraInfo::from_camera(camera),
+        generator: Some(Generator {
+            name: format!("indoorloc synth {}", env!("CARGO_PKG_VERSION")),
+            seed: Some(cfg.seed),
+            source: None,
+            settings,
+        }),
+    };
+    let cuts_opt = (!cuts.is_empty()).then_some(cuts);
+    let labels_opt = (!labels.is_empty()).then_some(labels.as_slice());
+    native::write_metadata(out, &info, &Trajectory::new(frames), labels_opt, cuts_opt, &splits)?;
+    Ok(())
+}
+
+fn write_png(path: &Path, bytes: &[u8]) -> Result<()> {
+    data::io::write_atomic(path, |w| w.write_all(bytes)).map_err(SynthError::from)
+}
+
+fn encode(width: u32, height: u32, raw: &[u8], color: image::ExtendedColorType) -> Result<Vec<u8>> {
+    use image::ImageEncoder;
+    let mut bytes = Vec::new();
+    image::codecs::png::PngEncoder::new_with_quality(
+        &mut bytes,
+        image::codecs::png::CompressionType::Fast,
+        image::codecs::png::FilterType::Adaptive,
+    )
+    .write_image(raw, width, height, color)
+    .map_err(|e| SynthError::Config(format!("PNG encoding failed: {e}")))?;
+    Ok(bytes)
+}
+
+/// PNG bytes of an RGB image.
+pub fn encode_rgb(img: &image::RgbImage) -> Result<Vec<u8>> {
+    encode(img.width(), img.height(), img.as_raw(), image::ExtendedColorType::Rgb8)
+}
+
+/// PNG bytes of a 16-bit depth image in millimetres (0 = no depth; saturates at 65.535 m).
+pub fn encode_depth_mm(depth: &[f32], width: u32, height: u32) -> Result<Vec<u8>> {
+    let mut raw = Vec::with_capacity(depth.len() * 2);
+    for &d in depth {
+        let mm = if d.is_finite() && d > 0.0 { (d * 1000.0).round().min(65535.0) as u16 } else { 0 };
+        raw.extend_from_slice(&mm.to_be_bytes()); // PNG stores 16-bit samples big-endian
+    }
+    encode(width, height, &raw, image::ExtendedColorType::L16)
+}
+
+/// PNG bytes of 8-bit dominant-plane ids: this frame's planes ranked by pixel count, the largest
+/// 1, the next 2, ... up to 255; 0 for no plane (and for planes beyond the 255 largest).
+pub fn encode_planes(plane: &[u32], width: u32, height: u32) -> Result<Vec<u8>> {
+    let mut counts: HashMap<u32, usize> = HashMap::new();
+    for &p in plane.iter().filter(|&&p| p != 0) {
+        *counts.entry(p).or_default() += 1;
+    }
+    let mut ranked: Vec<(u32, usize)> = counts.into_iter().collect();
+    // Largest first; ties by id so the output does not depend on hash order.
+    ranked.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    let rank: HashMap<u32, u8> = ranked
+        .iter()
+        .take(255)
+        .enumerate()
+        .map(|(i, &(id, _))| (id, (i + 1) as u8))
+        .collect();
+    let raw: Vec<u8> = plane.iter().map(|p| rank.get(p).copied().unwrap_or(0)).collect();
+    encode(width, height, &raw, image::ExtendedColorType::L8)
+}
+
+/// Writes the 7-Scenes layout of a native dataset (`seq-XX/frame-NNNNNN.{color.png, pose.txt,
+/// depth.png}`, `TrainSplit.txt`, `TestSplit.txt`; validation sequences count as training).
+pub fn export_7scenes(native_dir: &Path, out: &Path) -> Result<()> {
+    let ds = native::NativeDataset::open(native_dir)?;
+    let seqs = ds.sequences();
+    let seq_no: HashMap<&str, usize> = seqs.iter().enumerate().map(|(i, s)| (s.as_str(), i + 1)).collect();
+    let mut frames = Vec::with_capacity(ds.trajectory.len());
+    let mut per_seq_index: HashMap<usize, usize> = HashMap::new();
+    for (i, f) in ds.trajectory.frames.iter().enumerate() {
+        let no = seq_no.get(f.seq.as_str()).copied().unwrap_or(0);
+        let k = per_seq_index.entry(no).or_default();
+        let stem = format!("frame-{:06}", *k);
+        *k += 1;
+        let dir = out.join(format!("seq-{no:02}"));
+        std::fs::create_dir_all(&dir).map_err(|source| SynthError::Io { path: dir.clone(), source })?;
+        let frame_no = ds.frame_number(i).unwrap_or(i as u64);
+        copy(&ds.frame_path(frame_no), &dir.join(format!("{stem}.color.png")))?;
+        let depth = ds.depth_path(frame_no);
+        if depth.is_file() {
+            copy(&depth, &dir.join(format!("{stem}.depth.png")))?;
+        }
+        frames.push(PoseFrame {
+            name: stem,
+            seq: format!("seq-{no:02}"),
+            t: f.t,
+            pose: f.pose,
+        });
+    }
+    data::sevenscenes::write(&Trajectory::new(frames), out)?;
+    let list = |names: &[String]| -> String {
+        names
+            .iter()
+            .filter_map(|s| seq_no.get(s.as_str()))
+            .map(|no| format!("sequence{no}\n"))
+            .collect()
+    };
+    let mut train = ds.splits.train.clone();
+    train.extend(ds.splits.val.iter().cloned());
+    data::io::write_text_atomic(&out.join("TrainSplit.txt"), &list(&train))?;
+    data::io::write_text_atomic(&out.join("TestSplit.txt"), &list(&ds.splits.test))?;
+    Ok(())
+}
+
+fn copy(from: &Path, to: &Path) -> Result<()> {
+    let bytes = std::fs::read(from).map_err(|source| SynthError::Io { path: from.to_path_buf(), source })?;
+    write_png(to, &bytes)
+}

@@ -1,0 +1,596 @@
+//! The rasterizer's first, visibility pass: which triangle is nearest at each raster pixel.
+//!
+//! Triangles come from the scene's grid, cell by cell, nearest cell first; a cell whose box lies
+//! behind everything already drawn in its screen rectangle (a coarse max-depth buffer of 8x8
+//! tiles) is skipped, which indoors removes everything behind the walls in view. Each triangle is
+//! clipped against the near plane (and, when it projects absurdly far off screen, a guard band),
+//! snapped to 1/16 pixel and filled with integer edge functions under the top-left rule, so
+//! triangles sharing an edge cover every pixel centre along it exactly once. Only `1/z` and a
+//! triangle index are written; shading happens once per pixel afterwards (deferred).
+
+use super::FrameStats;
+use super::lens::RasterCam;
+use super::scene::{Grid, RenderScene, SceneTri, dot32};
+use crate::world::Triangle;
+use geom::Pose;
+
+/// No triangle at this pixel.
+pub(crate) const NONE: u32 = u32::MAX;
+
+/// Near clipping distance, metres: cameras stand close to walls, and `1/z` depth keeps full
+/// precision however near the plane is.
+pub(crate) const NEAR: f32 = 0.005;
+
+/// Sub-pixel bits of snapped vertex positions.
+const SUB_BITS: u32 = 4;
+/// Sub-pixel steps per pixel.
+const SUB: i64 = 1 << SUB_BITS;
+
+/// Pixels past the raster's edge beyond which triangles are clipped, keeping fixed-point
+/// coordinates (and edge-function products) far inside `i64`.
+const GUARD: f32 = 4096.0;
+
+/// Side of the square tiles of the coarse depth buffer, pixels.
+const HIZ: usize = 8;
+
+/// The camera of one (sub-)frame.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct View {
+    /// The raster drawn into.
+    pub cam: RasterCam,
+    /// World → camera rotation, rows.
+    pub rot: [[f32; 3]; 3],
+    /// Camera centre, world.
+    pub c: [f32; 3],
+    /// Far clipping distance along the optical axis, metres.
+    pub far: f32,
+    /// Camera-space normals of the four side planes through the centre (inside: `n · p ≥ 0`).
+    side: [[f32; 3]; 4],
+    /// World-space planes of the frustum (`n · p + d ≥ 0` inside): four sides, near, far.
+    planes: [[f32; 4]; 6],
+    /// World ray through raster position `(sx, sy)`: `ray0 + sx·ray_x + sy·ray_y` (its camera z
+    /// component is 1, so a point at depth z is `c + z·ray`).
+    pub ray0: [f32; 3],
+    /// See `ray0`.
+    pub ray_x: [f32; 3],
+    /// See `ray0`.
+    pub ray_y: [f32; 3],
+}
+
+impl View {
+    /// The view of a camera-to-world pose.
+    pub fn new(pose: &Pose, cam: RasterCam, far: f32) -> View {
+        let m = pose.rotation.inverse().to_rotation_matrix();
+        let m = m.matrix();
+        let rot: [[f32; 3]; 3] = std::array::from_fn(|r| std::array::from_fn(|k| m[(r, k)] as f32));
+        let c = [0, 1, 2].map(|k| pose.translation[k] as f32);
+        // Camera → world of a direction: the transpose of `rot`.
+        let to_world = |v: [f32; 3]| -> [f32; 3] {
+            std::array::from_fn(|k| rot[0][k] * v[0] + rot[1][k] * v[1] + rot[2][k] * v[2])
+        };
+        let (w, h) = (cam.w as f32, cam.h as f32);
+        let side = [
+            [cam.fx, 0.0, cam.cx + 0.5],
+            [-cam.fx, 0.0, w - 0.5 - cam.cx],
+            [0.0, cam.fy, cam.cy + 0.5],
+            [0.0, -cam.fy, h - 0.5 - cam.cy],
+        ];
+        let mut planes = [[0.0f32; 4]; 6];
+        for (p, s) in planes.iter_mut().zip(side.iter()) {
+            // Unit normals, so plane values are distances (for spheres against the frustum).
+            let n = to_world(*s);
+            let len = dot32(n, n).sqrt().max(f32::MIN_POSITIVE);
+            let n = n.map(|v| v / len);
+            *p = [n[0], n[1], n[2], -dot32(n, c)];
+        }
+        let fwd = to_world([0.0, 0.0, 1.0]);
+        planes[4] = [fwd[0], fwd[1], fwd[2], -dot32(fwd, c) - NEAR];
+        planes[5] = [-fwd[0], -fwd[1], -fwd[2], dot32(fwd, c) + far];
+        let rx = to_world([1.0 / cam.fx, 0.0, 0.0]);
+        let ry = to_world([0.0, 1.0 / cam.fy, 0.0]);
+        let r0 = to_world([-cam.cx / cam.fx, -cam.cy / cam.fy, 1.0]);
+        View {
+            cam,
+            rot,
+            c,
+            far,
+            side,
+            planes,
+            ray0: r0,
+            ray_x: rx,
+            ray_y: ry,
+        }
+    }
+
+    /// True when a sphere reaches into the frustum (conservatively: it is not entirely outside
+    /// one of its planes).
+    pub fn sphere_in_view(&self, p: [f32; 3], r: f32) -> bool {
+        self.planes
+            .iter()
+            .all(|pl| pl[0] * p[0] + pl[1] * p[1] + pl[2] * p[2] + pl[3] >= -r)
+    }
+
+    /// World point → camera coordinates.
+    #[inline(always)]
+    pub fn to_cam(&self, p: [f32; 3]) -> [f32; 3] {
+        let d = [p[0] - self.c[0], p[1] - self.c[1], p[2] - self.c[2]];
+        self.rotate(d)
+    }
+
+    /// World direction → camera coordinates.
+    #[inline(always)]
+    pub fn rotate(&self, d: [f32; 3]) -> [f32; 3] {
+        [dot32(self.rot[0], d), dot32(self.rot[1], d), dot32(self.rot[2], d)]
+    }
+
+    /// World point at raster position `(sx, sy)` and depth `z`.
+    #[inline(always)]
+    pub fn point(&self, sx: f32, sy: f32, z: f32) -> [f32; 3] {
+        std::array::from_fn(|k| {
+            self.c[k] + z * (self.ray0[k] + sx * self.ray_x[k] + sy * self.ray_y[k])
+        })
+    }
+}
+
+/// A triangle drawn this frame, with the screen-space planes the shader interpolates: `1/z`,
+/// `u/z` and `v/z` are affine in raster position, so `value(sx, sy) = a·sx + (b·sy + c)`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct VisTri {
+    /// `1/z` plane.
+    pub w: [f32; 3],
+    /// `u/z` plane.
+    pub u: [f32; 3],
+    /// `v/z` plane.
+    pub v: [f32; 3],
+    /// World normal of the side facing the camera.
+    pub n: [f32; 3],
+    /// Dominant-plane id.
+    pub plane: u32,
+    /// Scene material index.
+    pub material: u16,
+}
+
+impl VisTri {
+    /// `1/z` at a raster position (the same expression the fill loop uses, so the direct path
+    /// reads back exactly what the depth test compared).
+    #[inline(always)]
+    pub fn w_at(&self, sx: f32, sy: f32) -> f32 {
+        self.w[0] * sx + (self.w[1] * sy + self.w[2])
+    }
+}
+
+/// Buffers of the visibility pass, reused from frame to frame.
+#[derive(Debug, Default)]
+pub(crate) struct Raster {
+    /// The raster.
+    pub cam: Option<RasterCam>,
+    /// `1/z` per raster pixel (0: nothing).
+    pub zbuf: Vec<f32>,
+    /// Index into `vis` per raster pixel ([`NONE`]: nothing).
+    pub ids: Vec<u32>,
+    /// Triangles that won at least one pixel when drawn.
+    pub vis: Vec<VisTri>,
+    /// Per coarse tile: the smallest `1/z` (farthest depth) of its pixels.
+    hiz: Vec<f32>,
+    /// Per coarse tile: `hiz` is stale.
+    hiz_dirty: Vec<bool>,
+    tiles_w: usize,
+    /// Cells in view this frame: `(distance² bits << 32) | cell`.
+    cells: Vec<u64>,
+    /// Per scene triangle: the frame (or shadow ray) that last touched it.
+    pub stamps: Vec<u32>,
+    /// The current stamp.
+    pub stamp: u32,
+    /// The scene the stamps belong to.
+    scene_id: u64,
+    /// This frame's extra triangles, prepared.
+    extra: Vec<SceneTri>,
+    /// Counters of the last frame.
+    pub stats: FrameStats,
+}
+
+impl Raster {
+    /// A fresh stamp (resetting the stamps when the counter wraps).
+    pub fn next_stamp(&mut self) -> u32 {
+        self.stamp = self.stamp.wrapping_add(1);
+        if self.stamp == 0 {
+            self.stamps.fill(0);
+            self.stamp = 1;
+        }
+        self.stamp
+    }
+
+    /// Sizes the buffers for a scene and a raster.
+    fn prepare(&mut self, scene: &RenderScene, cam: RasterCam) {
+        if self.scene_id != scene.id || self.stamps.len() != scene.tris.len() {
+            self.stamps.clear();
+            self.stamps.resize(scene.tris.len(), 0);
+            self.stamp = 0;
+            self.scene_id = scene.id;
+        }
+        let n = cam.w * cam.h;
+        if self.cam != Some(cam) {
+            self.zbuf.resize(n, 0.0);
+            self.ids.resize(n, NONE);
+            self.tiles_w = cam.w.div_ceil(HIZ);
+            let tiles = self.tiles_w * cam.h.div_ceil(HIZ);
+            self.hiz.resize(tiles, 0.0);
+            self.hiz_dirty.resize(tiles, false);
+            self.cam = Some(cam);
+        }
+        self.zbuf.fill(0.0);
+        self.ids.fill(NONE);
+        self.hiz.fill(0.0);
+        self.hiz_dirty.fill(false);
+        self.vis.clear();
+        self.stats = FrameStats::default();
+    }
+
+    /// Draws the scene and `extra` (this frame's people, drawn without the grid) for `view`.
+    pub fn draw(&mut self, scene: &RenderScene, view: &View, extra: &[Triangle]) {
+        self.prepare(scene, view.cam);
+        // Extra triangles first: they stand near the camera and occlude cells behind them.
+        let mut prepared = std::mem::take(&mut self.extra);
+        prepared.clear();
+        prepared.extend(
+            extra
+                .iter()
+                .filter_map(|t| SceneTri::new(t, scene.material_index(t.material))),
+        );
+        for t in &prepared {
+            self.draw_tri(t, view);
+        }
+        self.extra = prepared;
+
+        let stamp = self.next_stamp();
+        self.collect_cells(&scene.grid, view);
+        let cells = std::mem::take(&mut self.cells);
+        for &key in &cells {
+            let cell = (key & 0xffff_ffff) as usize;
+            if !self.cell_visible(&scene.grid, cell, view) {
+                self.stats.cells_occluded += 1;
+                continue;
+            }
+            for &ti in scene.grid.items(cell) {
+                let slot = &mut self.stamps[ti as usize];
+                if *slot == stamp {
+                    continue;
+                }
+                *slot = stamp;
+                self.draw_tri(&scene.tris[ti as usize], view);
+            }
+        }
+        self.cells = cells;
+    }
+
+    /// Lists the non-empty grid cells that intersect the view frustum, nearest first.
+    fn collect_cells(&mut self, grid: &Grid, view: &View) {
+        self.cells.clear();
+        let cam = view.cam;
+        // Bounding box of the frustum: the centre and the far corners.
+        let mut lo = view.c;
+        let mut hi = view.c;
+        for (sx, sy) in [
+            (-0.5, -0.5),
+            (cam.w as f32 - 0.5, -0.5),
+            (-0.5, cam.h as f32 - 0.5),
+            (cam.w as f32 - 0.5, cam.h as f32 - 0.5),
+        ] {
+            let p = view.point(sx, sy, view.far);
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let grid_hi: [f32; 3] = std::array::from_fn(|k| grid.lo[k] + grid.cell * grid.dims[k] as f32);
+        if (0..3).any(|k| !(hi[k] >= grid.lo[k] && lo[k] <= grid_hi[k])) {
+            return;
+        }
+        let (a, b) = grid.range(lo, hi);
+        for z in a[2]..=b[2] {
+            for y in a[1]..=b[1] {
+                let row = grid.index([0, y, z]);
+                for x in a[0]..=b[0] {
+                    let cell = row + x;
+                    if grid.is_empty(cell) {
+                        continue;
+                    }
+                    let (blo, bhi) = grid.cell_box(cell);
+                    let outside = view.planes.iter().any(|p| {
+                        let q = [0, 1, 2].map(|k| if p[k] >= 0.0 { bhi[k] } else { blo[k] });
+                        p[0] * q[0] + p[1] * q[1] + p[2] * q[2] + p[3] < 0.0
+                    });
+                    if outside {
+                        continue;
+                    }
+                    let d2: f32 = (0..3)
+                        .map(|k| {
+                            let d = (blo[k] - view.c[k]).max(view.c[k] - bhi[k]).max(0.0);
+                            d * d
+                        })
+                        .sum();
+                    self.cells.push(((d2.to_bits() as u64) << 32) | cell as u64);
+                }
+            }
+        }
+        self.cells.sort_unstable();
+        self.stats.cells_in_view = self.cells.len() as u32;
+    }
+
+    /// False when the cell's box lies behind what is already drawn everywhere it projects.
+    fn cell_visible(&mut self, grid: &Grid, cell: usize, view: &View) -> bool {
+        let (lo, hi) = grid.cell_box(cell);
+        let cam = view.cam;
+        let (mut x0, mut x1, mut y0, mut y1) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
+        let mut zmin = f32::MAX;
+        for corner in 0..8 {
+            let p = [
+                if corner & 1 == 0 { lo[0] } else { hi[0] },
+                if corner & 2 == 0 { lo[1] } else { hi[1] },
+                if corner & 4 == 0 { lo[2] } else { hi[2] },
+            ];
+            let q = view.to_cam(p);
+            if !(q[2] > NEAR) {
+                return true;
+            }
+            let iz = 1.0 / q[2];
+            let x = cam.fx * q[0] * iz + cam.cx;
+            let y = cam.fy * q[1] * iz + cam.cy;
+            x0 = x0.min(x);
+            x1 = x1.max(x);
+            y0 = y0.min(y);
+            y1 = y1.max(y);
+            zmin = zmin.min(q[2]);
+        }
+        let (wl, hl) = (cam.w as f32 - 1.0, cam.h as f32 - 1.0);
+        if x1 < 0.0 || y1 < 0.0 || x0 > wl || y0 > hl {
+            return false;
+        }
+        let tx0 = (x0.max(0.0).floor() as usize) / HIZ;
+        let tx1 = (x1.min(wl).ceil() as usize) / HIZ;
+        let ty0 = (y0.max(0.0).floor() as usize) / HIZ;
+        let ty1 = (y1.min(hl).ceil() as usize) / HIZ;
+        let wcell = 1.0 / zmin;
+        for ty in ty0..=ty1 {
+            for tx in tx0..=tx1 {
+                if wcell >= self.hiz_at(tx, ty) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// The farthest `1/z` of a coarse tile, refreshed if stale.
+    fn hiz_at(&mut self, tx: usize, ty: usize) -> f32 {
+        let t = ty * self.tiles_w + tx;
+        if self.hiz_dirty[t] {
+            let cam = self.cam.map(|c| (c.w, c.h)).unwrap_or((0, 0));
+            let mut m = f32::MAX;
+            for y in ty * HIZ..((ty + 1) * HIZ).min(cam.1) {
+                let row = &self.zbuf[y * cam.0 + tx * HIZ..y * cam.0 + ((tx + 1) * HIZ).min(cam.0)];
+                for &w in row {
+                    m = m.min(w);
+                }
+            }
+            self.hiz[t] = m;
+            self.hiz_dirty[t] = false;
+        }
+        self.hiz[t]
+    }
+
+    /// Culls, clips and fills one triangle.
+    fn draw_tri(&mut self, t: &SceneTri, view: &View) {
+        self.stats.triangles_tested += 1;
+        let p = t.v.map(|q| view.to_cam(q));
+        if p.iter().all(|q| q[2] < NEAR) || p.iter().all(|q| q[2] > view.far) {
+            return;
+        }
+        for s in &view.side {
+            if p.iter().all(|q| dot32(*s, *q) < 0.0) {
+                return;
+            }
+        }
+        // The triangle's plane in camera space: nc · q = dc.
+        let nc = view.rotate(t.n);
+        let dc = t.d - dot32(t.n, view.c);
+        // Edge-on (the plane passes through the eye) or not finite: covers nothing.
+        if !(dc.abs() > 1e-7) {
+            return;
+        }
+        // The camera sees the front face when it lies on the normal's side: nc · 0 > dc.
+        let front = dc < 0.0;
+        if t.cull && !front {
+            return;
+        }
+        let cam = view.cam;
+        let inv = 1.0 / dc;
+        let w = [
+            nc[0] / cam.fx * inv,
+            nc[1] / cam.fy * inv,
+            (nc[2] - nc[0] * cam.cx / cam.fx - nc[1] * cam.cy / cam.fy) * inv,
+        ];
+        // u = g · q + h in camera space; u/z = g · ray + h · (1/z).
+        let uvplane = |g: [f32; 4]| -> [f32; 3] {
+            let gc = view.rotate([g[0], g[1], g[2]]);
+            let h = g[3] + dot32([g[0], g[1], g[2]], view.c);
+            [
+                gc[0] / cam.fx + h * w[0],
+                gc[1] / cam.fy + h * w[1],
+                gc[2] - gc[0] * cam.cx / cam.fx - gc[1] * cam.cy / cam.fy + h * w[2],
+            ]
+        };
+        let n = if front { t.n } else { t.n.map(|c| -c) };
+        let id = self.vis.len() as u32;
+        self.vis.push(VisTri {
+            w,
+            u: uvplane(t.gu),
+            v: uvplane(t.gv),
+            n,
+            plane: t.plane,
+            material: t.material,
+        });
+        if self.clip_and_fill(p, id, w, view) {
+            self.stats.triangles_drawn += 1;
+        } else {
+            self.vis.pop();
+        }
+    }
+
+    /// Clips a camera-space triangle and fills the pieces; true when a pixel was written.
+    fn clip_and_fill(&mut self, p: [[f32; 3]; 3], id: u32, w: [f32; 3], view: &View) -> bool {
+        let cam = view.cam;
+        let mut a = [[0.0f32; 3]; 9];
+        let mut b = [[0.0f32; 3]; 9];
+        a[..3].copy_from_slice(&p);
+        let mut n = 3;
+        if p.iter().any(|q| q[2] < NEAR) {
+            n = clip(&a[..n], &mut b, |q| q[2] - NEAR);
+            a = b;
+        }
+        if n < 3 {
+            return false;
+        }
+        let (lx, hx) = (-GUARD, cam.w as f32 + GUARD);
+        let (ly, hy) = (-GUARD, cam.h as f32 + GUARD);
+        let project = |q: &[f32; 3]| {
+            let iz = 1.0 / q[2];
+            (cam.fx * q[0] * iz + cam.cx, cam.fy * q[1] * iz + cam.cy)
+        };
+        let out_of_band = a[..n].iter().any(|q| {
+            let (x, y) = project(q);
+            !(x >= lx && x <= hx && y >= ly && y <= hy)
+        });
+        if out_of_band {
+            // x ≥ lx  ⇔  fx·X + (cx − lx)·Z ≥ 0, and so on for the other three sides.
+            let planes = [
+                [cam.fx, 0.0, cam.cx - lx],
+                [-cam.fx, 0.0, hx - cam.cx],
+                [0.0, cam.fy, cam.cy - ly],
+                [0.0, -cam.fy, hy - cam.cy],
+            ];
+            for pl in planes {
+                n = clip(&a[..n], &mut b, |q| dot32(pl, *q));
+                a = b;
+                if n < 3 {
+                    return false;
+                }
+            }
+        }
+        let mut fx = [(0i64, 0i64); 9];
+        for (f, q) in fx.iter_mut().zip(&a[..n]) {
+            let (x, y) = project(q);
+            if !(x.is_finite() && y.is_finite()) {
+                return false;
+            }
+            *f = (
+                (x * SUB as f32).round() as i64,
+                (y * SUB as f32).round() as i64,
+            );
+        }
+        let mut wrote = false;
+        for i in 1..n - 1 {
+            wrote |= self.fill(fx[0], fx[i], fx[i + 1], id, w);
+        }
+        wrote
+    }
+
+    /// Fills a snapped triangle: depth test against `1/z` from the plane `w`, top-left rule.
+    fn fill(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64), id: u32, w: [f32; 3]) -> bool {
+        let Some(cam) = self.cam else {
+            return false;
+        };
+        let area = (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0);
+        if area == 0 {
+            return false;
+        }
+        // Orient so the edge functions are positive inside (clockwise on a y-down screen).
+        let (b, c) = if area > 0 { (b, c) } else { (c, b) };
+        let min_x = a.0.min(b.0).min(c.0);
+        let max_x = a.0.max(b.0).max(c.0);
+        let min_y = a.1.min(b.1).min(c.1);
+        let max_y = a.1.max(b.1).max(c.1);
+        // Pixel centres (integer positions) inside the bounding box.
+        let x0 = ((min_x + SUB - 1) >> SUB_BITS).max(0);
+        let x1 = (max_x >> SUB_BITS).min(cam.w as i64 - 1);
+        let y0 = ((min_y + SUB - 1) >> SUB_BITS).max(0);
+        let y1 = (max_y >> SUB_BITS).min(cam.h as i64 - 1);
+        if x0 > x1 || y0 > y1 {
+            return false;
+        }
+        // Edge p→q: E(P) = (q.x − p.x)(P.y − p.y) − (q.y − p.y)(P.x − p.x), at the first pixel
+        // centre, with its steps per pixel in x and y. A pixel centre exactly on an edge belongs
+        // to the triangle only for a top edge (horizontal, going right) or a left edge (going
+        // up); the other triangle on that edge sees it reversed, so exactly one of them draws it.
+        let edge = |p: (i64, i64), q: (i64, i64)| -> (i64, i64, i64) {
+            let dx = q.0 - p.0;
+            let dy = q.1 - p.1;
+            let top_left = dy < 0 || (dy == 0 && dx > 0);
+            let e = dx * (y0 * SUB - p.1) - dy * (x0 * SUB - p.0) - if top_left { 0 } else { 1 };
+            (e, -dy * SUB, dx * SUB)
+        };
+        let (mut r0, sx0, sy0) = edge(a, b);
+        let (mut r1, sx1, sy1) = edge(b, c);
+        let (mut r2, sx2, sy2) = edge(c, a);
+        let width = cam.w;
+        let mut wrote = false;
+        for y in y0..=y1 {
+            let (mut e0, mut e1, mut e2) = (r0, r1, r2);
+            let row = y as usize * width;
+            let wrow = w[1] * y as f32 + w[2];
+            let mut seen = false;
+            for x in x0..=x1 {
+                if (e0 | e1 | e2) >= 0 {
+                    seen = true;
+                    let i = row + x as usize;
+                    let wv = w[0] * x as f32 + wrow;
+                    if wv > self.zbuf[i] {
+                        self.zbuf[i] = wv;
+                        self.ids[i] = id;
+                        wrote = true;
+                    }
+                } else if seen {
+                    // Convex: the span of this row is over.
+                    break;
+                }
+                e0 += sx0;
+                e1 += sx1;
+                e2 += sx2;
+            }
+            r0 += sy0;
+            r1 += sy1;
+            r2 += sy2;
+        }
+        if wrote {
+            let (tx0, tx1) = (x0 as usize / HIZ, x1 as usize / HIZ);
+            for ty in y0 as usize / HIZ..=y1 as usize / HIZ {
+                self.hiz_dirty[ty * self.tiles_w + tx0..=ty * self.tiles_w + tx1].fill(true);
+            }
+        }
+        wrote
+    }
+}
+
+/// Sutherland–Hodgman against one plane (`dist ≥ 0` inside); returns the new vertex count. The
+/// crossing point of an edge is computed from its inside end, so the two triangles sharing a
+/// clipped edge get bit-identical new vertices and no crack opens between them.
+fn clip(src: &[[f32; 3]], dst: &mut [[f32; 3]; 9], dist: impl Fn(&[f32; 3]) -> f32) -> usize {
+    let mut n = 0;
+    for i in 0..src.len() {
+        let a = src[i];
+        let b = src[(i + 1) % src.len()];
+        let da = dist(&a);
+        let db = dist(&b);
+        if da >= 0.0 && n < 9 {
+            dst[n] = a;
+            n += 1;
+        }
+        if (da >= 0.0) != (db >= 0.0) && n < 9 {
+            let (pi, po, di, dout) = if da >= 0.0 { (a, b, da, db) } else { (b, a, db, da) };
+            let t = di / (di - dout);
+            dst[n] = std::array::from_fn(|k| pi[k] + t * (po[k] - pi[k]));
+            n += 1;
+        }
+    }
+    n
+}
