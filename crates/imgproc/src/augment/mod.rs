@@ -611,3 +611,398 @@ fn as_image<P: Pixel<Subpixel = u8>>(w: u32, h: u32, buf: Vec<u8>) -> Result<Ima
         ImgprocError::Size(format!("buffer of {len} bytes does not hold a {w}x{h} image"))
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::serde_check::{Value, from_value, to_value};
+    use super::test_util::scene;
+    use super::*;
+    use image::{GrayImage, RgbImage, imageops};
+    use std::f64::consts::PI;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use std::time::Instant;
+
+    /// Every op fires, at moderate strength: the worst case for speed and for determinism.
+    fn everything() -> AugmentConfig {
+        AugmentConfig {
+            rotation_deg: Jitter::new(1.0, -30.0, 30.0),
+            affine: AffineJitter {
+                p: 1.0,
+                scale: [0.9, 1.1],
+                shear_deg: [-5.0, 5.0],
+                translate: [-0.05, 0.05],
+            },
+            border: Border::Reflect,
+            style: StyleJitter {
+                p: 1.0,
+                strength: [0.5, 1.0],
+            },
+            brightness: Jitter::new(1.0, 0.7, 1.4),
+            contrast: Jitter::new(1.0, 0.7, 1.4),
+            gamma: Jitter::new(1.0, 0.8, 1.25),
+            saturation: Jitter::new(1.0, 0.5, 1.5),
+            hue_deg: Jitter::new(1.0, -20.0, 20.0),
+            blur_sigma: Jitter::new(1.0, 0.5, 1.0),
+            noise_sigma: Jitter::new(1.0, 2.0, 6.0),
+            erase: EraseJitter {
+                p: 1.0,
+                count: [1, 3],
+                area: [0.05, 0.15],
+                aspect: [0.5, 2.0],
+                noise_fill_p: 0.5,
+            },
+        }
+    }
+
+    fn presets() -> Vec<(&'static str, AugmentConfig)> {
+        vec![
+            ("none", AugmentConfig::none()),
+            ("light", AugmentConfig::light()),
+            ("ceiling", AugmentConfig::ceiling()),
+            ("shape_bias", AugmentConfig::shape_bias()),
+            ("everything", everything()),
+        ]
+    }
+
+    #[test]
+    fn same_seed_same_bytes_other_seed_other_bytes() -> Result<()> {
+        let img = scene(96, 72);
+        for (name, cfg) in presets() {
+            for seed in [0u64, 1, 42, u64::MAX] {
+                let (a, la) = augment(&img, &cfg, seed)?;
+                let (b, lb) = augment(&img, &cfg, seed)?;
+                assert_eq!(a.as_raw(), b.as_raw(), "{name}, seed {seed}");
+                assert_eq!(la, lb);
+            }
+        }
+        // With every op firing, any two seeds differ.
+        let cfg = everything();
+        let outs: Vec<RgbImage> = (0..8)
+            .map(|s| augment(&img, &cfg, s).map(|(i, _)| i))
+            .collect::<Result<_>>()?;
+        for i in 0..outs.len() {
+            for j in i + 1..outs.len() {
+                assert_ne!(outs[i], outs[j], "seeds {i} and {j}");
+            }
+        }
+        // Presets with probabilities below 1 still vary over seeds.
+        let light: Vec<RgbImage> = (0..8)
+            .map(|s| augment(&img, &AugmentConfig::light(), s).map(|(i, _)| i))
+            .collect::<Result<_>>()?;
+        assert!(light.windows(2).any(|w| w[0] != w[1]));
+        Ok(())
+    }
+
+    #[test]
+    fn none_is_the_identity() -> Result<()> {
+        let img = scene(50, 40);
+        for seed in 0..5 {
+            let (out, change) = augment(&img, &AugmentConfig::none(), seed)?;
+            assert_eq!(out, img);
+            assert_eq!(change, LabelChange::NONE);
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn labels_follow_the_geometry() -> Result<()> {
+        let img = scene(80, 60);
+        for seed in 0..50 {
+            // 6-DoF presets never move a pixel.
+            for cfg in [AugmentConfig::light(), AugmentConfig::shape_bias()] {
+                assert!(!cfg.is_geometric());
+                assert!(augment(&img, &cfg, seed)?.1.preserves_pose());
+            }
+            // The ceiling preset rotates about the centre; its pixel map is exactly the rotation
+            // by heading_delta.
+            let (_, change) = augment(&img, &AugmentConfig::ceiling(), seed)?;
+            let d = change.heading_delta;
+            assert!(d > -PI && d <= PI);
+            let expected = Affine2::rotation_about(d, 39.5, 29.5);
+            for (a, b) in change.pixel_map.m.iter().zip(expected.m.iter()) {
+                assert!((a - b).abs() < 1e-9, "seed {seed}");
+            }
+        }
+        // The ceiling preset's rotation image equals rotate_about_center with the same angle
+        // when nothing else fires.
+        let cfg = AugmentConfig {
+            rotation_deg: Jitter::new(1.0, -180.0, 180.0),
+            ..AugmentConfig::none()
+        };
+        let (out, change) = augment(&img, &cfg, 3)?;
+        let mut direct = RgbImage::new(80, 60);
+        rotate_about_center(&img, &mut direct, change.heading_delta, Border::Black)?;
+        assert_eq!(out, direct);
+        Ok(())
+    }
+
+    #[test]
+    fn stages_draw_independently() -> Result<()> {
+        // Switching blur and noise off does not change the rotation another stage drew.
+        let img = scene(64, 48);
+        let full = everything();
+        let geometric_only = AugmentConfig {
+            rotation_deg: full.rotation_deg,
+            ..AugmentConfig::none()
+        };
+        for seed in 0..10 {
+            let a = augment(&img, &full, seed)?.1.heading_delta;
+            let b = augment(&img, &geometric_only, seed)?.1.heading_delta;
+            assert_eq!(a, b);
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn fused_tone_table_equals_the_ops_in_sequence() -> Result<()> {
+        let img = scene(64, 48);
+        let cfg = AugmentConfig {
+            brightness: Jitter::new(1.0, 1.25, 1.25),
+            contrast: Jitter::new(1.0, 0.8, 0.8),
+            gamma: Jitter::new(1.0, 1.1, 1.1),
+            ..AugmentConfig::none()
+        };
+        let (fused, _) = augment(&img, &cfg, 0)?;
+        let (mut a, mut b) = (RgbImage::new(64, 48), RgbImage::new(64, 48));
+        adjust_brightness(&img, &mut a, 1.25)?;
+        adjust_contrast(&a, &mut b, 0.8)?;
+        adjust_gamma(&b, &mut a, 1.1)?;
+        let max_diff = fused
+            .as_raw()
+            .iter()
+            .zip(a.as_raw())
+            .map(|(p, q)| p.abs_diff(*q))
+            .max();
+        // log-uniform draws of a one-point range may differ from it by an ulp.
+        assert!(max_diff <= Some(1), "{max_diff:?}");
+        Ok(())
+    }
+
+    #[test]
+    fn grey_images_augment_too() -> Result<()> {
+        let img = imageops::grayscale(&scene(80, 60));
+        for cfg in [AugmentConfig::ceiling(), AugmentConfig::shape_bias(), everything()] {
+            let (a, _) = augment(&img, &cfg, 5)?;
+            let (b, _) = augment(&img, &cfg, 5)?;
+            assert_eq!(a, b);
+        }
+        let mut dst = GrayImage::new(80, 60);
+        augment_into(&img, &everything(), 1, &mut dst)?;
+        assert_ne!(dst, img);
+        Ok(())
+    }
+
+    #[test]
+    fn invalid_configs_are_errors_not_panics() {
+        let img = scene(16, 12);
+        let mut bad = Vec::new();
+        let mut c = AugmentConfig::light();
+        c.brightness.p = 1.5;
+        bad.push(("probability > 1", c));
+        let mut c = AugmentConfig::light();
+        c.noise_sigma.range = [-1.0, 2.0];
+        bad.push(("negative noise sigma", c));
+        let mut c = AugmentConfig::light();
+        c.blur_sigma.range = [-0.5, 1.0];
+        bad.push(("negative blur sigma", c));
+        let mut c = AugmentConfig::light();
+        c.erase.area = [0.5, 1.2];
+        bad.push(("area fraction > 1", c));
+        let mut c = AugmentConfig::light();
+        c.erase.count = [3, 2];
+        bad.push(("count min > max", c));
+        let mut c = AugmentConfig::light();
+        c.erase.count = [1, 1000];
+        bad.push(("too many rectangles", c));
+        let mut c = AugmentConfig::light();
+        c.erase.noise_fill_p = -0.1;
+        bad.push(("negative fill probability", c));
+        let mut c = AugmentConfig::light();
+        c.gamma.range = [0.0, 1.0];
+        bad.push(("gamma 0", c));
+        let mut c = AugmentConfig::light();
+        c.contrast.range = [1.2, 0.8];
+        bad.push(("min > max", c));
+        let mut c = AugmentConfig::ceiling();
+        c.rotation_deg.range = [f64::NAN, 10.0];
+        bad.push(("NaN angle", c));
+        let mut c = AugmentConfig::light();
+        c.style.strength = [0.5, 1.5];
+        bad.push(("style strength > 1", c));
+        let mut c = AugmentConfig::light();
+        c.affine.shear_deg = [-80.0, 0.0];
+        bad.push(("shear beyond 45°", c));
+        let mut c = AugmentConfig::light();
+        c.affine.scale = [0.0, 1.0];
+        bad.push(("scale 0", c));
+        let mut c = AugmentConfig::light();
+        c.hue_deg.p = f64::NAN;
+        bad.push(("NaN probability", c));
+        for (what, cfg) in bad {
+            assert!(cfg.validate().is_err(), "{what}");
+            assert!(augment(&img, &cfg, 0).is_err(), "{what}");
+        }
+        let mut wrong = RgbImage::new(8, 8);
+        assert!(augment_into(&img, &AugmentConfig::light(), 0, &mut wrong).is_err());
+        assert!(augment(&RgbImage::new(0, 5), &AugmentConfig::light(), 0).is_err());
+        for (name, cfg) in presets() {
+            assert!(cfg.validate().is_ok(), "{name}");
+        }
+    }
+
+    #[test]
+    fn config_serde_round_trip() -> std::result::Result<(), Box<dyn std::error::Error>> {
+        for (name, cfg) in presets() {
+            let value = to_value(&cfg)?;
+            let back: AugmentConfig = from_value(value.clone())?;
+            assert_eq!(back, cfg, "{name}");
+            if let Value::Map(fields) = &value {
+                assert_eq!(fields.len(), 12);
+                let border = fields.iter().find(|(k, _)| k == "border").map(|(_, v)| v);
+                assert!(matches!(border, Some(Value::Str(s)) if s == "black" || s == "reflect"));
+            } else {
+                return Err("a config serialises as a map".into());
+            }
+        }
+        // Unknown fields are rejected, so a typo in a stored config does not go unnoticed.
+        let Value::Map(mut fields) = to_value(&AugmentConfig::light())? else {
+            return Err("a config serialises as a map".into());
+        };
+        fields.push(("rotation".into(), Value::F64(1.0)));
+        assert!(from_value::<AugmentConfig>(Value::Map(fields)).is_err());
+        for name in ["none", "light", "ceiling", "shape_bias"] {
+            assert!(AugmentConfig::preset(name).is_some());
+        }
+        assert!(AugmentConfig::preset("heavy").is_none());
+        assert_eq!(AugmentConfig::default(), AugmentConfig::light());
+        Ok(())
+    }
+
+    /// This thread's CPU time, seconds (utime + stime from `/proc/thread-self/stat`, 10 ms
+    /// ticks), so that figures taken on a busy machine count only the time this test ran.
+    fn thread_cpu_s() -> Option<f64> {
+        let stat = std::fs::read_to_string("/proc/thread-self/stat").ok()?;
+        // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+        let rest = stat.rsplit_once(')')?.1;
+        let f: Vec<&str> = rest.split_whitespace().collect();
+        let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+        Some(ticks / 100.0)
+    }
+
+    /// Runs `f` for at least a second of CPU time (or wall time where `/proc` is missing);
+    /// returns ms per call, wall and CPU, and the number of calls.
+    fn measure(mut f: impl FnMut() -> Result<()>) -> Result<(f64, f64, u32)> {
+        let (t0, c0) = (Instant::now(), thread_cpu_s());
+        let mut n = 0u32;
+        loop {
+            for _ in 0..10 {
+                f()?;
+            }
+            n += 10;
+            let cpu = match (c0, thread_cpu_s()) {
+                (Some(a), Some(b)) => b - a,
+                _ => t0.elapsed().as_secs_f64(),
+            };
+            if cpu >= 1.0 {
+                let wall = t0.elapsed().as_secs_f64();
+                return Ok((wall * 1e3 / f64::from(n), cpu * 1e3 / f64::from(n), n));
+            }
+        }
+    }
+
+    /// Speed of whole-pipeline draws, ms per image; run with
+    /// `cargo test -p imgproc --release augment_speed -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn augment_speed() -> Result<()> {
+        for (w, h) in [(160, 120), (320, 240)] {
+            let img = scene(w, h);
+            let mut dst = RgbImage::new(w, h);
+            for (name, cfg) in [
+                ("light", AugmentConfig::light()),
+                ("ceiling", AugmentConfig::ceiling()),
+                ("shape_bias", AugmentConfig::shape_bias()),
+                ("everything", everything()),
+            ] {
+                for seed in 0..20 {
+                    augment_into(&img, &cfg, seed, &mut dst)?;
+                }
+                let mut seed = 0;
+                let (wall, cpu, n) = measure(|| {
+                    seed += 1;
+                    augment_into(&img, &cfg, seed, &mut dst).map(|_| ())
+                })?;
+                println!("{w}x{h} {name:>10}: {cpu:.3} ms CPU per image ({wall:.3} ms wall, {n} images)");
+            }
+        }
+        // Each op alone at 320x240, to see where the time goes.
+        let img = scene(320, 240);
+        let mut dst = RgbImage::new(320, 240);
+        let mut rng = ChaCha8Rng::seed_from_u64(0);
+        let mut time = |name: &str, f: &mut dyn FnMut(&mut RgbImage, &mut ChaCha8Rng) -> Result<()>| -> Result<()> {
+            let (wall, cpu, _) = measure(|| f(&mut dst, &mut rng))?;
+            println!("320x240 {name:>16}: {cpu:.3} ms CPU ({wall:.3} ms wall)");
+            Ok(())
+        };
+        time("rotate", &mut |d, _| rotate_about_center(&img, d, 0.3, Border::Black).map(|_| ()))?;
+        time("style", &mut |d, r| style_randomize(&img, d, &StyleParams { strength: 1.0 }, r))?;
+        time("brightness", &mut |d, _| adjust_brightness(&img, d, 1.2))?;
+        time("contrast", &mut |d, _| adjust_contrast(&img, d, 1.2))?;
+        time("gamma", &mut |d, _| adjust_gamma(&img, d, 1.2))?;
+        time("colour", &mut |d, _| adjust_color(&img, d, 1.2, 0.1))?;
+        time("blur 1.0", &mut |d, _| gaussian_blur(&img, d, 1.0))?;
+        time("noise", &mut |d, r| add_gaussian_noise(&img, d, 5.0, r))?;
+        let ep = EraseParams { count: 2, area_fraction: 0.1, aspect: [0.5, 2.0], fill: EraseFill::Noise };
+        time("erase", &mut |d, r| random_erase(&img, d, &ep, r).map(|_| ()))?;
+        Ok(())
+    }
+
+    /// Writes a contact sheet of augmentations to `$TMPDIR/augment.png` for a look by eye: a
+    /// synthetic scene and a real 7-Scenes frame (where `../shared/data` is present), each as
+    /// original, light ×2, ceiling ×2, shape_bias ×3.
+    #[test]
+    #[ignore]
+    fn contact_sheet() -> std::result::Result<(), Box<dyn std::error::Error>> {
+        let (tw, th) = (320u32, 240u32);
+        let mut sources = vec![scene(tw, th)];
+        let real = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(
+            "../../../shared/data/7scenes_stairs_sample/kapture/sensors/records_data/seq-04/frame-000001.color.jpg",
+        );
+        if let Ok(img) = image::open(&real) {
+            sources.push(imageops::resize(
+                &img.to_rgb8(),
+                tw,
+                th,
+                imageops::FilterType::Triangle,
+            ));
+        }
+        let plan = [
+            ("light", 1u64),
+            ("light", 2),
+            ("ceiling", 3),
+            ("ceiling", 4),
+            ("shape_bias", 5),
+            ("shape_bias", 6),
+            ("shape_bias", 7),
+        ];
+        let cols = 4u32;
+        let rows_per_source = (plan.len() as u32 + 1).div_ceil(cols);
+        let mut sheet = RgbImage::new(cols * tw, rows_per_source * sources.len() as u32 * th);
+        for (s, src) in sources.iter().enumerate() {
+            let mut tiles = vec![src.clone()];
+            for (name, seed) in plan {
+                let cfg = AugmentConfig::preset(name).ok_or("preset")?;
+                tiles.push(augment(src, &cfg, seed)?.0);
+            }
+            for (i, tile) in tiles.iter().enumerate() {
+                let (c, r) = (i as u32 % cols, i as u32 / cols + s as u32 * rows_per_source);
+                imageops::replace(&mut sheet, tile, i64::from(c * tw), i64::from(r * th));
+            }
+        }
+        let path = std::env::temp_dir().join("augment.png");
+        sheet.save(&path)?;
+        println!("wrote {}", path.display());
+        Ok(())
+    }
+}

@@ -342,12 +342,15 @@ pub(crate) fn blur_slice(src: &[u8], dst: &mut [u8], w: usize, h: usize, cn: usi
     let k = gaussian_kernel(sigma);
     let r = k.len() / 2;
     let row_len = w * cn;
-    // Horizontal pass into f32, one reflected row at a time.
+    // Horizontal pass into f32, one reflected row at a time; the reflection is a gather table
+    // computed once, so the per-row work is a copy and a contiguous multiply-add per tap.
+    let xs: Vec<usize> = (0..w + 2 * r)
+        .map(|px| reflect101(px as i64 - r as i64, w))
+        .collect();
     let mut tmp = vec![0f32; row_len * h];
     let mut pad = vec![0f32; (w + 2 * r) * cn];
     for (srow, trow) in src.chunks_exact(row_len).zip(tmp.chunks_exact_mut(row_len)) {
-        for (px, out) in pad.chunks_exact_mut(cn).enumerate() {
-            let sx = reflect101(px as i64 - r as i64, w);
+        for (out, &sx) in pad.chunks_exact_mut(cn).zip(xs.iter()) {
             for (o, &v) in out.iter_mut().zip(&srow[sx * cn..sx * cn + cn]) {
                 *o = f32::from(v);
             }
@@ -505,4 +508,194 @@ pub(crate) fn erase_slice<R: Rng + ?Sized>(
         rects.push(EraseRect { x, y, w: rw, h: rh });
     }
     rects
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::augment::test_util::{mean_var, noise_image, scene};
+    use image::{GrayImage, Luma, Rgb};
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    /// Every grey level once per row, 4 rows.
+    fn ramp() -> GrayImage {
+        GrayImage::from_fn(256, 4, |x, _| Luma([x as u8]))
+    }
+
+    fn monotone(img: &GrayImage) -> bool {
+        img.as_raw()[..256].windows(2).all(|w| w[0] <= w[1])
+    }
+
+    #[test]
+    fn tone_ops_are_monotone_and_clamped() -> Result<()> {
+        let src = ramp();
+        let mut dst = GrayImage::new(256, 4);
+        for f in [0.0, 0.5, 1.0, 1.3, 3.0] {
+            adjust_brightness(&src, &mut dst, f)?;
+            assert!(monotone(&dst), "brightness {f}");
+            assert_eq!(dst.get_pixel(100, 0)[0], to_byte((100.0 * f) as f32));
+            if f > 1.0 {
+                assert_eq!(dst.get_pixel(255, 0)[0], 255, "clamped");
+            }
+            adjust_contrast(&src, &mut dst, f)?;
+            assert!(monotone(&dst), "contrast {f}");
+            // The ramp's mean is 127.5: it stays put, the ends move away from it or clamp.
+            let (m, _) = mean_var(&dst);
+            assert!((m - 127.5).abs() < 1.0, "contrast {f}: mean {m}");
+            if f > 1.0 {
+                assert_eq!((dst.get_pixel(0, 0)[0], dst.get_pixel(255, 0)[0]), (0, 255));
+            }
+        }
+        for g in [0.4, 0.8, 1.0, 1.5, 2.5] {
+            adjust_gamma(&src, &mut dst, g)?;
+            assert!(monotone(&dst), "gamma {g}");
+            assert_eq!((dst.get_pixel(0, 0)[0], dst.get_pixel(255, 0)[0]), (0, 255));
+            let mid = dst.get_pixel(128, 0)[0];
+            assert!(if g < 1.0 { mid > 128 } else { mid <= 128 }, "gamma {g}: {mid}");
+        }
+        adjust_brightness(&src, &mut dst, 1.0)?;
+        assert_eq!(dst, src);
+        adjust_contrast(&src, &mut dst, 0.0)?;
+        assert!(dst.pixels().all(|p| p[0] == 128), "contrast 0 is the mean");
+        Ok(())
+    }
+
+    #[test]
+    fn colour_jitter_keeps_luma() -> Result<()> {
+        let src = scene(64, 48);
+        let mut dst = RgbImage::new(64, 48);
+        adjust_color(&src, &mut dst, 1.0, 0.0)?;
+        let max_diff = |a: &RgbImage, b: &RgbImage| {
+            a.as_raw()
+                .iter()
+                .zip(b.as_raw())
+                .map(|(&p, &q)| p.abs_diff(q))
+                .max()
+                .unwrap_or(0)
+        };
+        assert!(max_diff(&src, &dst) <= 1, "neutral jitter is the identity");
+        adjust_color(&src, &mut dst, 0.0, 0.0)?;
+        for (s, d) in src.pixels().zip(dst.pixels()) {
+            let luma = 0.299 * f64::from(s[0]) + 0.587 * f64::from(s[1]) + 0.114 * f64::from(s[2]);
+            for c in 0..3 {
+                assert!((f64::from(d[c]) - luma).abs() <= 1.0, "grey at saturation 0");
+            }
+        }
+        // A hue shift of +30° moves a (soft, so nothing clamps) red towards yellow: green rises
+        // above blue, luma stays.
+        let red = RgbImage::from_pixel(2, 2, Rgb([180, 90, 90]));
+        let mut out = RgbImage::new(2, 2);
+        adjust_color(&red, &mut out, 1.0, 30f64.to_radians())?;
+        let p = out.get_pixel(0, 0);
+        assert!(p[1] > p[2] + 20 && p[0] > p[1], "{p:?}");
+        let luma = |p: &Rgb<u8>| 0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2]);
+        assert!((luma(p) - luma(red.get_pixel(0, 0))).abs() < 1.0, "{p:?}");
+        Ok(())
+    }
+
+    #[test]
+    fn noise_is_zero_mean_with_the_requested_sigma() -> Result<()> {
+        let src = RgbImage::from_pixel(200, 200, Rgb([128, 128, 128]));
+        let mut dst = RgbImage::new(200, 200);
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        add_gaussian_noise(&src, &mut dst, 10.0, &mut rng)?;
+        let (m, v) = mean_var(&dst);
+        assert!((m - 128.0).abs() < 0.1, "mean {m}");
+        assert!((v.sqrt() - 10.0).abs() < 0.3, "sigma {}", v.sqrt());
+        // The table is exactly symmetric with unit variance.
+        let t = normal_table();
+        assert!(t.iter().map(|&z| f64::from(z)).sum::<f64>().abs() < 1e-3);
+        let var = t.iter().map(|&z| f64::from(z).powi(2)).sum::<f64>() / 4096.0;
+        assert!((var - 1.0).abs() < 1e-5);
+        add_gaussian_noise(&src, &mut dst, 0.0, &mut rng)?;
+        assert_eq!(dst, src);
+        Ok(())
+    }
+
+    #[test]
+    fn blur_reduces_variance() -> Result<()> {
+        let src = noise_image(64, 48, 1);
+        let mut dst = RgbImage::new(64, 48);
+        let (m0, v0) = mean_var(&src);
+        let mut last = v0;
+        for sigma in [0.5, 1.0, 2.0] {
+            gaussian_blur(&src, &mut dst, sigma)?;
+            let (m, v) = mean_var(&dst);
+            assert!(v < last, "sigma {sigma}: variance {v} not below {last}");
+            assert!((m - m0).abs() < 1.0, "blur keeps the mean");
+            last = v;
+        }
+        gaussian_blur(&src, &mut dst, 0.0)?;
+        assert_eq!(dst, src);
+        let flat = GrayImage::from_pixel(5, 3, Luma([77]));
+        let mut out = GrayImage::new(5, 3);
+        gaussian_blur(&flat, &mut out, 4.0)?;
+        assert_eq!(out, flat, "a flat image stays flat, even with a kernel wider than it");
+        Ok(())
+    }
+
+    #[test]
+    fn erasing_covers_the_requested_area() -> Result<()> {
+        let src = RgbImage::from_pixel(200, 100, Rgb([1, 2, 3]));
+        let mut dst = RgbImage::new(200, 100);
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        for (fraction, fill) in [(0.25, EraseFill::Color), (0.1, EraseFill::Noise), (1.0, EraseFill::Color)] {
+            for _ in 0..10 {
+                let params = EraseParams {
+                    count: 1,
+                    area_fraction: fraction,
+                    aspect: [0.3, 3.0],
+                    fill,
+                };
+                let rects = random_erase(&src, &mut dst, &params, &mut rng)?;
+                let changed = src.pixels().zip(dst.pixels()).filter(|(a, b)| a != b).count();
+                let covered = changed as f64 / 20_000.0;
+                assert!((covered - fraction).abs() < 0.01, "{fraction}: covered {covered}");
+                let r = rects[0];
+                assert!(r.x + r.w <= 200 && r.y + r.h <= 100);
+            }
+        }
+        let params = EraseParams {
+            count: 4,
+            area_fraction: 0.2,
+            aspect: [1.0, 1.0],
+            fill: EraseFill::Color,
+        };
+        let rects = random_erase(&src, &mut dst, &params, &mut rng)?;
+        assert_eq!(rects.len(), 4);
+        let changed = src.pixels().zip(dst.pixels()).filter(|(a, b)| a != b).count();
+        assert!(changed as f64 <= 0.2 * 20_000.0 * 1.02, "overlaps only lower the cover");
+        Ok(())
+    }
+
+    #[test]
+    fn bad_parameters_are_errors() {
+        let src = RgbImage::new(8, 8);
+        let mut dst = RgbImage::new(8, 8);
+        let mut rng = ChaCha8Rng::seed_from_u64(0);
+        assert!(adjust_brightness(&src, &mut dst, -0.1).is_err());
+        assert!(adjust_contrast(&src, &mut dst, f64::NAN).is_err());
+        assert!(adjust_gamma(&src, &mut dst, 0.0).is_err());
+        assert!(adjust_color(&src, &mut dst, -1.0, 0.0).is_err());
+        assert!(adjust_color(&src, &mut dst, 1.0, f64::INFINITY).is_err());
+        assert!(add_gaussian_noise(&src, &mut dst, -1.0, &mut rng).is_err());
+        assert!(gaussian_blur(&src, &mut dst, -0.5).is_err());
+        assert!(gaussian_blur(&src, &mut dst, MAX_BLUR_SIGMA + 1.0).is_err());
+        let mut params = EraseParams {
+            count: 1,
+            area_fraction: 1.5,
+            aspect: [1.0, 2.0],
+            fill: EraseFill::Color,
+        };
+        assert!(random_erase(&src, &mut dst, &params, &mut rng).is_err());
+        params.area_fraction = 0.5;
+        params.aspect = [0.0, 1.0];
+        assert!(random_erase(&src, &mut dst, &params, &mut rng).is_err());
+        params.aspect = [2.0, 1.0];
+        assert!(random_erase(&src, &mut dst, &params, &mut rng).is_err());
+        let mut small = RgbImage::new(4, 8);
+        assert!(adjust_brightness(&src, &mut small, 1.0).is_err());
+        assert!(gaussian_blur(&src, &mut small, 1.0).is_err());
+    }
 }

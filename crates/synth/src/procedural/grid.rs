@@ -178,8 +178,14 @@ impl Grid {
     /// The face looking into cell `free` from cell `other` (one step `step` away), if any.
     fn face(&self, level: &Level, free: (i32, i32), other: (i32, i32), step: (i32, i32)) -> Option<Key> {
         let a = self.get(free.0, free.1);
-        let za = level.zones.get(a as usize)?;
+        if a >= SOLID {
+            return None;
+        }
         let b = self.get(other.0, other.1);
+        if a == b {
+            return None;
+        }
+        let za = level.zones.get(a as usize)?;
         let lo = match level.zones.get(b as usize) {
             Some(zb) if zb.top >= za.top => return None,
             Some(zb) => zb.top,

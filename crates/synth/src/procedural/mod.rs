@@ -92,20 +92,24 @@ pub fn default_world(seed: u64, variant: Variant) -> World {
 /// The default building of `seed` under `variant`, with settings `cfg`.
 pub fn default_world_with(cfg: &DefaultWorldConfig, seed: u64, variant: Variant) -> World {
     let cfg = cfg.sanitized();
+    let t0 = std::time::Instant::now();
     let plan = plan::build(&cfg, seed);
     let mut world = World {
         name: format!("default building (seed {seed})"),
         atmosphere: Atmosphere::default(),
         ..World::default()
     };
+    eprintln!("'let mats = materials' {:?}", t0.elapsed());
     let mats = materials::Materials::create(&mut world, seed);
     let runs: Vec<Vec<grid::WallRun>> = plan
         .levels
         .iter()
         .map(|level| grid::Grid::new(level).wall_runs(level))
         .collect();
+    eprintln!("'world.regions = walk' {:?}", t0.elapsed());
     world.regions = walk::regions(&plan);
     world.walk = walk::graph(&plan, &world.regions);
+    eprintln!("'let disaster =' {:?}", t0.elapsed());
     let disaster = variant == Variant::Disaster;
     let decor: Vec<decor::LevelDecor> = plan
         .levels
@@ -124,6 +128,7 @@ pub fn default_world_with(cfg: &DefaultWorldConfig, seed: u64, variant: Variant)
             decor::decorate(&mut world, &cx)
         })
         .collect();
+    eprintln!("'let furniture_seed' {:?}", t0.elapsed());
     let furniture_seed = rng::hash(&[seed, rng::text("furniture"), u64::from(variant == Variant::FurnitureMoved)]);
     let walk_graph = world.walk.clone();
     let mut mesh = mesh::Mesh::new(&mut world);
@@ -150,8 +155,19 @@ pub fn default_world_with(cfg: &DefaultWorldConfig, seed: u64, variant: Variant)
             furniture::debris(&mut mesh, &site, &mats, seed);
         }
     }
+    eprintln!("end {:?}", t0.elapsed());
     world
 }
 
 #[cfg(test)]
 mod tests;
+/// bench
+pub fn bench_grid() {
+    let plan = plan::build(&DefaultWorldConfig::default(), 3);
+    let t = std::time::Instant::now();
+    let grids: Vec<_> = plan.levels.iter().map(grid::Grid::new).collect();
+    eprintln!("grids {:?}", t.elapsed());
+    let t = std::time::Instant::now();
+    let n: usize = plan.levels.iter().zip(&grids).map(|(l, g)| g.wall_runs(l).len()).sum();
+    eprintln!("runs {n} {:?}", t.elapsed());
+}

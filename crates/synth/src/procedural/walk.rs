@@ -128,9 +128,10 @@ fn lattices(g: &mut Builder, level: &Level, li: usize, landings: &HashMap<(usize
     for (i, &(za, ra, a)) in walkable.iter().enumerate() {
         for &(zb, rb, b) in &walkable[i + 1..] {
             let Some(mid) = shared_edge_mid(&a, &b) else { continue };
-            let j = g.node(Point3::new(mid[0], mid[1], z));
+            let pt = Point3::new(mid[0], mid[1], z);
+            let j = g.node(pt);
             for key in [(za, ra), (zb, rb)] {
-                if let Some(n) = nearest(g, lattice.get(&key), j) {
+                if let Some(n) = nearest(g, lattice.get(&key), &pt) {
                     g.edge(j, n);
                 }
             }
@@ -187,15 +188,19 @@ fn side(
     };
     match z.kind {
         ZoneKind::Corridor | ZoneKind::Lobby | ZoneKind::Bridge => {
-            let p = g.node(at((depth / 2.0).min(1.2)));
-            let near = nearest(g, lattice.get(&(zone, ri)), p);
-            match near {
-                Some(n) if dist(g, n, p) < 0.3 => g.edge(centre, n),
+            // The approach point, unless a lattice node is practically there already.
+            let pt = at((depth / 2.0).min(1.2));
+            match nearest(g, lattice.get(&(zone, ri)), &pt) {
+                Some(n) if g.nodes.get(n).is_some_and(|q| (q - pt).norm() < 0.3) => g.edge(centre, n),
                 Some(n) => {
+                    let p = g.node(pt);
                     g.edge(centre, p);
                     g.edge(p, n);
                 }
-                None => g.edge(centre, p),
+                None => {
+                    let p = g.node(pt);
+                    g.edge(centre, p);
+                }
             }
         }
         ZoneKind::Room(_) => {
@@ -243,20 +248,10 @@ fn shared_edge_mid(a: &IRect, b: &IRect) -> Option<[f32; 2]> {
     None
 }
 
-fn dist(g: &Builder, a: usize, b: usize) -> f32 {
-    match (g.nodes.get(a), g.nodes.get(b)) {
-        (Some(p), Some(q)) => (p - q).norm(),
-        _ => f32::INFINITY,
-    }
-}
-
-/// The node of `candidates` nearest to node `to`.
-fn nearest(g: &Builder, candidates: Option<&Vec<usize>>, to: usize) -> Option<usize> {
-    candidates?
-        .iter()
-        .copied()
-        .filter(|&c| c != to)
-        .min_by(|&a, &b| dist(g, a, to).total_cmp(&dist(g, b, to)))
+/// The node of `candidates` nearest to `to`.
+fn nearest(g: &Builder, candidates: Option<&Vec<usize>>, to: &Point3<f32>) -> Option<usize> {
+    let d = |i: usize| g.nodes.get(i).map_or(f32::INFINITY, |p| (p - to).norm());
+    candidates?.iter().copied().min_by(|&a, &b| d(a).total_cmp(&d(b)))
 }
 
 /// Nodes (deduplicated by position) and edges (deduplicated).

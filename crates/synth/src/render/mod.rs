@@ -355,3 +355,432 @@ fn check_pose(pose: &Pose, what: &str) -> Result<()> {
         Err(SynthError::Config(format!("{what} is not finite")))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::world::{Light, Material, Pattern, Plane};
+    use crate::World;
+    use geom::Distortion;
+    use nalgebra::{Matrix3, Point2, Point3, Vector3};
+
+    type R<T = ()> = std::result::Result<T, Box<dyn std::error::Error>>;
+
+    /// A camera at `eye` looking at `target`, level (OpenCV axes: x right, y down, z forward).
+    fn look_at(eye: [f64; 3], target: [f64; 3]) -> R<Pose> {
+        let e = Vector3::from(eye);
+        let f = (Vector3::from(target) - e).normalize();
+        let up = if f.z.abs() > 0.99 { Vector3::y() } else { Vector3::z() };
+        let x = f.cross(&up).normalize();
+        let y = f.cross(&x);
+        Ok(Pose::from_rt(&Matrix3::from_columns(&[x, y, f]), eye)?)
+    }
+
+    /// Adds a quad (counter-clockwise seen from the front) with uv in metres along its sides.
+    fn quad(w: &mut World, q: [[f32; 3]; 4], material: u16, plane: u32) {
+        let p = q.map(|v| Point3::new(v[0], v[1], v[2]));
+        let eu = (p[1] - p[0]).normalize();
+        let ev = (p[3] - p[0]).normalize();
+        let uv = |v: &Point3<f32>| [(v - p[0]).dot(&eu), (v - p[0]).dot(&ev)];
+        for [i, j, k] in [[0, 1, 2], [0, 2, 3]] {
+            w.triangles.push(Triangle {
+                v: [p[i], p[j], p[k]],
+                uv: [uv(&p[i]), uv(&p[j]), uv(&p[k])],
+                material,
+                plane,
+            });
+        }
+    }
+
+    fn materials(w: &mut World) -> [u16; 3] {
+        let wall = w.add_material(Material {
+            pattern: Pattern::Brick,
+            ..Material::plain("wall", [0.7, 0.4, 0.3])
+        });
+        let wall2 = w.add_material(Material::plain("wall2", [0.8, 0.8, 0.7]));
+        let floor = w.add_material(Material {
+            pattern: Pattern::Tiles { size: 0.5 },
+            ..Material::plain("floor", [0.4, 0.4, 0.45])
+        });
+        [wall, wall2, floor]
+    }
+
+    /// Two walls meeting at the vertical edge x = y = 0 and the floor between them: wall x = 0
+    /// (plane 1), wall y = 0 (plane 2), floor z = 0 (plane 3); corner point at the origin.
+    fn corner_world() -> World {
+        let mut w = World::default();
+        let [wall, wall2, floor] = materials(&mut w);
+        w.add_plane(Plane { normal: Vector3::x(), offset: 0.0 });
+        w.add_plane(Plane { normal: Vector3::y(), offset: 0.0 });
+        w.add_plane(Plane { normal: Vector3::z(), offset: 0.0 });
+        quad(&mut w, [[0.0, 6.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 3.0], [0.0, 6.0, 3.0]], wall, 1);
+        quad(&mut w, [[0.0, 0.0, 0.0], [6.0, 0.0, 0.0], [6.0, 0.0, 3.0], [0.0, 0.0, 3.0]], wall2, 2);
+        quad(&mut w, [[0.0, 0.0, 0.0], [6.0, 0.0, 0.0], [6.0, 6.0, 0.0], [0.0, 6.0, 0.0]], floor, 3);
+        w.lights.push(Light {
+            position: Point3::new(2.0, 2.0, 2.8),
+            intensity: 1.0,
+            on: true,
+            fixture: None,
+        });
+        w
+    }
+
+    /// A closed room [0, 4] x [0, 5] x [0, 3] seen from inside (faces point inwards), with a lamp.
+    fn box_world() -> World {
+        let mut w = World::default();
+        let [wall, wall2, floor] = materials(&mut w);
+        let (x, y, z) = (4.0, 5.0, 3.0);
+        quad(&mut w, [[0.0, 0.0, 0.0], [x, 0.0, 0.0], [x, y, 0.0], [0.0, y, 0.0]], floor, 1);
+        quad(&mut w, [[0.0, 0.0, z], [0.0, y, z], [x, y, z], [x, 0.0, z]], wall2, 2);
+        quad(&mut w, [[0.0, 0.0, 0.0], [0.0, y, 0.0], [0.0, y, z], [0.0, 0.0, z]], wall, 3);
+        quad(&mut w, [[x, y, 0.0], [x, 0.0, 0.0], [x, 0.0, z], [x, y, z]], wall, 4);
+        quad(&mut w, [[x, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, z], [x, 0.0, z]], wall2, 5);
+        quad(&mut w, [[0.0, y, 0.0], [x, y, 0.0], [x, y, z], [0.0, y, z]], wall2, 6);
+        w.lights.push(Light {
+            position: Point3::new(2.0, 2.5, 2.9),
+            intensity: 1.0,
+            on: true,
+            fixture: None,
+        });
+        w
+    }
+
+    fn cameras() -> R<Vec<(&'static str, Camera)>> {
+        Ok(vec![
+            ("pinhole", Camera::new(320, 240, 260.0, 262.0, 161.3, 118.7, Distortion::default())?),
+            (
+                "distorted",
+                Camera::new(
+                    320,
+                    240,
+                    260.0,
+                    262.0,
+                    161.3,
+                    118.7,
+                    Distortion::from_array([-0.2, 0.05, 0.0, 0.0, 0.0]),
+                )?,
+            ),
+        ])
+    }
+
+    fn flat(mode: RenderMode) -> RenderOptions {
+        RenderOptions {
+            mode,
+            noise: 0.0,
+            vignetting: 0.0,
+            ..RenderOptions::default()
+        }
+    }
+
+    /// Acceptance: the rendered corner lies where `geom` projects it (≤ 1 px), and depth equals
+    /// the analytic ray/plane depth (≤ 1 cm), for a pinhole and a distorted lens.
+    #[test]
+    fn render_geometry_corner_and_depth() -> R {
+        let scene = RenderScene::new(&corner_world())?;
+        let pose = look_at([3.5, 4.0, 1.7], [0.0, 0.0, 0.4])?;
+        let corner = Point3::new(0.0, 0.0, 0.0);
+        let planes = [
+            (1u32, Vector3::x(), 0.0),
+            (2, Vector3::y(), 0.0),
+            (3, Vector3::z(), 0.0),
+        ];
+        for (name, camera) in cameras()? {
+            let out = render(&scene, &camera, &pose, &flat(RenderMode::Textured))?;
+            let (w, h) = (camera.width as usize, camera.height as usize);
+            // Pixel corners where all three plane ids meet within a 2x2 block.
+            let (mut sx, mut sy, mut count) = (0.0, 0.0, 0);
+            for y in 0..h - 1 {
+                for x in 0..w - 1 {
+                    let ids = [
+                        out.plane[y * w + x],
+                        out.plane[y * w + x + 1],
+                        out.plane[(y + 1) * w + x],
+                        out.plane[(y + 1) * w + x + 1],
+                    ];
+                    if (1..=3).all(|p| ids.contains(&p)) {
+                        sx += x as f64 + 0.5;
+                        sy += y as f64 + 0.5;
+                        count += 1;
+                    }
+                }
+            }
+            assert!(count > 0, "{name}: no pixel where the three planes meet");
+            let found = Point2::new(sx / count as f64, sy / count as f64);
+            let expected = camera.project_world(&pose, &corner).ok_or("corner behind camera")?;
+            let err_px = (found - expected).norm();
+            println!("{name}: corner found at {found}, projected at {expected}: {err_px:.3} px");
+            assert!(err_px <= 1.0, "{name}: corner off by {err_px} px");
+
+            // Depth against the analytic intersection of each pixel's ray with its plane.
+            let r = pose.rotation_matrix();
+            let c = pose.translation;
+            let mut worst: f64 = 0.0;
+            let mut checked = 0;
+            for y in 1..h - 1 {
+                for x in 1..w - 1 {
+                    let id = out.plane[y * w + x];
+                    let Some(&(_, n, off)) = planes.iter().find(|p| p.0 == id) else {
+                        continue;
+                    };
+                    // Skip pixels next to another surface: their nearest-pixel lookup may
+                    // take the neighbour's triangle.
+                    if [(0isize, 1isize), (1, 0), (0, -1), (-1, 0)].iter().any(|(dx, dy)| {
+                        out.plane[(y as isize + dy) as usize * w + (x as isize + dx) as usize] != id
+                    }) {
+                        continue;
+                    }
+                    let ray = r * camera.unproject(&Point2::new(x as f64, y as f64), 1.0).coords;
+                    let s = (off - n.dot(&c)) / n.dot(&ray);
+                    let err = (out.depth[y * w + x] as f64 - s).abs();
+                    worst = worst.max(err);
+                    checked += 1;
+                }
+            }
+            println!("{name}: depth checked at {checked} pixels, worst error {:.2e} m", worst);
+            assert!(checked > w * h / 2, "{name}: only {checked} pixels checked");
+            assert!(worst < 0.01, "{name}: depth off by {worst} m");
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn render_same_seed_same_bytes() -> R {
+        let scene = RenderScene::new(&box_world())?;
+        let camera = Camera::from_hfov(160, 120, 1.1)?;
+        let pose = look_at([1.0, 1.0, 1.5], [4.0, 4.0, 1.0])?;
+        let opts = |seed| RenderOptions {
+            seed,
+            noise: 0.03,
+            ..RenderOptions::default()
+        };
+        let a = render(&scene, &camera, &pose, &opts(7))?;
+        let mut r = Renderer::new();
+        // A reused renderer (after another frame) gives the same bytes as a fresh one.
+        r.render(&scene, &camera, &look_at([2.0, 2.0, 1.0], [0.0, 0.0, 0.0])?, &opts(1), &[])?;
+        let b = r.render(&scene, &camera, &pose, &opts(7), &[])?.clone();
+        assert_eq!(a, b);
+        let c = render(&scene, &camera, &pose, &opts(8))?;
+        let differing = a.rgb.iter().zip(c.rgb.iter()).filter(|(x, y)| x != y).count();
+        assert!(differing > a.rgb.len() / 2, "only {differing} bytes differ");
+        assert_eq!(a.depth, c.depth);
+        Ok(())
+    }
+
+    #[test]
+    fn render_every_mode_nontrivial() -> R {
+        let scene = RenderScene::new(&corner_world())?;
+        let camera = Camera::from_hfov(160, 120, 1.2)?;
+        let pose = look_at([3.5, 4.0, 1.7], [0.0, 0.0, 0.4])?;
+        for mode in RenderMode::ALL {
+            let out = render(&scene, &camera, &pose, &flat(mode))?;
+            let lo = out.rgb.iter().min().copied().unwrap_or(0);
+            let hi = out.rgb.iter().max().copied().unwrap_or(0);
+            assert!(hi > lo + 50, "{mode}: range {lo}..{hi}");
+            out.rgb.save(format!("{}/render_test_{mode}.png", std::env::temp_dir().display()))?;
+        }
+        // Edges: a white line along the vertical edge where the walls meet.
+        let out = render(&scene, &camera, &pose, &flat(RenderMode::Edges))?;
+        for z in [0.5, 1.0, 1.5, 2.0] {
+            let p = camera
+                .project_world(&pose, &Point3::new(0.0, 0.0, z))
+                .ok_or("behind")?;
+            let (px, py) = (p.x.round() as i64, p.y.round() as i64);
+            let white = (-1..=1).any(|dx| {
+                let x = (px + dx).clamp(0, 159) as u32;
+                out.rgb.get_pixel(x, py.clamp(0, 119) as u32).0[0] == 255
+            });
+            assert!(white, "no edge at the wall corner, z = {z}");
+        }
+        // Not everything is an edge.
+        let white = out.rgb.pixels().filter(|p| p.0[0] == 255).count();
+        assert!(white < 160 * 120 / 8, "{white} edge pixels");
+        Ok(())
+    }
+
+    #[test]
+    fn render_inside_closed_box_sees_no_background() -> R {
+        let scene = RenderScene::new(&box_world())?;
+        let targets = [
+            [4.0, 5.0, 1.0],
+            [0.0, 0.0, 0.0],
+            [2.0, 2.6, 3.0],
+            [2.0, 2.6, 0.0],
+            [4.0, 2.5, 1.5],
+        ];
+        for (name, camera) in cameras()? {
+            for (k, t) in targets.iter().enumerate() {
+                let pose = look_at([2.0, 2.5, 1.5], *t)?;
+                let out = render(&scene, &camera, &pose, &flat(RenderMode::Shaded))?;
+                let empty = out.depth.iter().filter(|&&d| !(d > 0.0)).count();
+                assert_eq!(empty, 0, "{name}, view {k}: {empty} pixels see nothing");
+            }
+        }
+        // Close to a wall: near-plane clipping keeps the wall, no background shows.
+        let camera = Camera::from_hfov(160, 120, 1.5)?;
+        let pose = look_at([0.03, 2.5, 1.5], [-1.0, 2.0, 1.0])?;
+        let out = render(&scene, &camera, &pose, &flat(RenderMode::Textured))?;
+        assert!(out.depth.iter().all(|&d| d > 0.0 && d < 0.2));
+        Ok(())
+    }
+
+    /// A floor of many small triangles (shared vertices, irregular in-plane positions) shows no
+    /// crack: every pixel below the horizon sees it.
+    #[test]
+    fn render_fine_mesh_has_no_cracks() -> R {
+        let mut w = World::default();
+        let m = w.add_material(Material::plain("floor", [0.5, 0.5, 0.5]));
+        let n = 60;
+        let jitter = |i: usize, j: usize| -> [f32; 2] {
+            if i == 0 || j == 0 || i == n || j == n {
+                return [0.0, 0.0];
+            }
+            let h = (i * 7919 + j * 104_729) % 1000;
+            [(h % 37) as f32 * 0.004 - 0.07, (h % 41) as f32 * 0.004 - 0.08]
+        };
+        let v = |i: usize, j: usize| {
+            let d = jitter(i, j);
+            Point3::new(i as f32 * 0.5 - 15.0 + d[0], j as f32 * 0.5 - 15.0 + d[1], 0.0)
+        };
+        for i in 0..n {
+            for j in 0..n {
+                let (a, b, c, d) = (v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1));
+                for t in [[a, b, c], [a, c, d]] {
+                    w.triangles.push(Triangle { v: t, uv: [[0.0; 2]; 3], material: m, plane: 1 });
+                }
+            }
+        }
+        let scene = RenderScene::new(&w)?;
+        let camera = Camera::from_hfov(200, 150, 1.3)?;
+        for (eye, target) in [([0.3, 0.2, 1.6], [5.0, 3.0, 0.0]), ([1.0, -2.0, 0.4], [2.0, 3.0, 0.2])] {
+            let pose = look_at(eye, target)?;
+            let out = render(&scene, &camera, &pose, &flat(RenderMode::Shaded))?;
+            let mut holes = 0;
+            for y in 0..150 {
+                for x in 0..200 {
+                    let ray = pose.rotation_matrix()
+                        * camera.unproject(&Point2::new(x as f64, y as f64), 1.0).coords;
+                    // Rays that hit the floor well inside the mesh must find it.
+                    if ray.z < -1e-3 {
+                        let s = -eye[2] / ray.z;
+                        let p = Vector3::from(eye) + ray * s;
+                        if p.x.abs() < 14.0 && p.y.abs() < 14.0 && out.depth[y * 200 + x] <= 0.0 {
+                            holes += 1;
+                        }
+                    }
+                }
+            }
+            assert_eq!(holes, 0, "{holes} cracks");
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn render_degenerate_inputs_do_not_panic() -> R {
+        let camera = Camera::from_hfov(64, 48, 1.2)?;
+        let distorted = Camera::new(64, 48, 40.0, 40.0, 31.5, 23.5, Distortion::from_array([-0.3, 0.08, 0.001, -0.001, 0.0]))?;
+        let pose = look_at([1.0, 1.0, 1.5], [3.0, 3.0, 1.0])?;
+        // Empty world.
+        let empty = RenderScene::new(&World::default())?;
+        for mode in RenderMode::ALL {
+            let out = render(&empty, &camera, &pose, &flat(mode))?;
+            assert!(out.depth.iter().all(|&d| d == 0.0));
+            assert!(out.plane.iter().all(|&p| p == 0));
+        }
+        // Zero-area and NaN triangles, a material id that does not exist, NaN uv.
+        let mut w = box_world();
+        let p = Point3::new(1.0, 1.0, 1.0);
+        w.triangles.push(Triangle { v: [p, p, p], uv: [[0.0; 2]; 3], material: 0, plane: 0 });
+        w.triangles.push(Triangle {
+            v: [p, Point3::new(2.0, 2.0, 2.0), Point3::new(3.0, 3.0, 3.0)],
+            uv: [[0.0; 2]; 3],
+            material: 0,
+            plane: 0,
+        });
+        w.triangles.push(Triangle {
+            v: [p, Point3::new(f32::NAN, 2.0, 2.0), Point3::new(3.0, 1.0, 1.0)],
+            uv: [[0.0; 2]; 3],
+            material: 0,
+            plane: 0,
+        });
+        w.triangles.push(Triangle {
+            v: [Point3::new(1.0, 3.0, 0.5), Point3::new(3.0, 3.0, 0.5), Point3::new(2.0, 3.0, 2.0)],
+            uv: [[f32::NAN, f32::INFINITY], [0.0; 2], [1e30, -1e30]],
+            material: 999,
+            plane: 7,
+        });
+        let scene = RenderScene::new(&w)?;
+        assert_eq!(scene.dropped_triangles(), 3);
+        let mut r = Renderer::new();
+        for cam in [camera, distorted] {
+            for mode in RenderMode::ALL {
+                let opts = RenderOptions { mode, shadows: true, ..RenderOptions::default() };
+                r.render(&scene, &cam, &pose, &opts, &w.triangles[w.triangles.len() - 4..])?;
+                // Camera inside a wall (on its plane), in a corner, and far outside.
+                for eye in [[0.0, 2.5, 1.5], [0.0, 0.0, 0.0], [4.0, 5.0, 3.0], [1e6, -1e6, 5.0]] {
+                    let pose = look_at(eye, [2.0, 2.5, 1.0])?;
+                    r.render(&scene, &cam, &pose, &opts, &[])?;
+                }
+            }
+        }
+        // A huge triangle crossing the near plane, with a vertex behind the camera.
+        let mut w = World::default();
+        let m = w.add_material(Material::plain("floor", [0.5, 0.5, 0.5]));
+        w.triangles.push(Triangle {
+            v: [Point3::new(-1e4, -1e4, 0.0), Point3::new(1e4, -1e4, 0.0), Point3::new(0.0, 1e4, 0.0)],
+            uv: [[0.0; 2]; 3],
+            material: m,
+            plane: 1,
+        });
+        let scene = RenderScene::new(&w)?;
+        let pose = look_at([0.0, 0.0, 1.5], [0.0, 5.0, 0.0])?;
+        let out = render(&scene, &camera, &pose, &flat(RenderMode::Textured))?;
+        // Looking down at 17°, the bottom row sees the floor at depth ≈ 1.5 / sin(angle).
+        assert!(out.depth[47 * 64..].iter().all(|&d| d > 0.5 && d < 10.0));
+        // Bad options and poses are errors, not panics.
+        let bad = RenderOptions { noise: f32::NAN, ..RenderOptions::default() };
+        assert!(render(&scene, &camera, &pose, &bad).is_err());
+        let mut nan_pose = pose;
+        nan_pose.translation.x = f64::NAN;
+        assert!(render(&scene, &camera, &nan_pose, &RenderOptions::default()).is_err());
+        let mut bad_cam = camera;
+        bad_cam.fx = -1.0;
+        assert!(render(&scene, &bad_cam, &pose, &RenderOptions::default()).is_err());
+        Ok(())
+    }
+
+    #[test]
+    fn render_motion_blur_and_haze() -> R {
+        let mut world = box_world();
+        let scene = RenderScene::new(&world)?;
+        let camera = Camera::from_hfov(96, 72, 1.2)?;
+        let pose = look_at([1.0, 1.0, 1.5], [4.0, 4.0, 1.0])?;
+        let sharp = render(&scene, &camera, &pose, &flat(RenderMode::Textured))?;
+        let opts = RenderOptions {
+            motion_blur: Some(MotionBlur {
+                previous: look_at([1.0, 1.3, 1.5], [4.0, 3.0, 1.2])?,
+                samples: 4,
+                shutter: 1.0,
+            }),
+            ..flat(RenderMode::Textured)
+        };
+        let blurred = render(&scene, &camera, &pose, &opts)?;
+        assert_ne!(sharp.rgb, blurred.rgb);
+        // Depth belongs to the current pose.
+        assert_eq!(sharp.depth, blurred.depth);
+        world.atmosphere.haze = 0.5;
+        world.atmosphere.haze_color = [0.9, 0.2, 0.2];
+        let hazy = render(&RenderScene::new(&world)?, &camera, &pose, &flat(RenderMode::Textured))?;
+        let red = |img: &image::RgbImage| img.pixels().map(|p| p.0[0] as f64 - p.0[2] as f64).sum::<f64>();
+        assert!(red(&hazy.rgb) > red(&sharp.rgb) + 1000.0);
+        Ok(())
+    }
+
+    #[test]
+    fn render_mode_names_round_trip() {
+        for m in RenderMode::ALL {
+            assert_eq!(m.name().parse::<RenderMode>(), Ok(m));
+            assert_eq!(m.to_string(), m.name());
+        }
+        assert!("wireframe".parse::<RenderMode>().is_err());
+    }
+}

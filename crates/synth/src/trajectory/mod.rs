@@ -219,10 +219,7 @@ impl WalkConfig {
             ),
             (
                 self.turn_rate_deg_s.is_finite() && self.turn_rate_deg_s >= 5.0,
-                format!(
-                    "turn rate {}°/s must be at least 5",
-                    self.turn_rate_deg_s
-                ),
+                format!("turn rate {}°/s must be at least 5", self.turn_rate_deg_s),
             ),
             (
                 self.lateral_m.is_finite()
@@ -366,9 +363,7 @@ pub fn with_cuts(
         };
         let seg_seed = seed ^ (k as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
         let t0 = frames.len() as f64 / cfg.fps;
-        frames.extend(sim::simulate(
-            world, &graph, cfg, len, seg_seed, start, t0,
-        )?);
+        frames.extend(sim::simulate(world, &graph, cfg, len, seg_seed, start, t0)?);
     }
     Ok((frames, cuts))
 }

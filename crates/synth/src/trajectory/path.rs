@@ -17,7 +17,10 @@ const STAIR_SPEED: f64 = 0.6;
 
 #[derive(Clone, Debug)]
 enum Shape {
-    Line { a: Vector3<f64>, b: Vector3<f64> },
+    Line {
+        a: Vector3<f64>,
+        b: Vector3<f64>,
+    },
     Bezier {
         p0: Vector3<f64>,
         c: Vector3<f64>,
@@ -251,7 +254,11 @@ impl Path {
             Shape::Bezier { p0, c, p2, table } => {
                 let k = table.partition_point(|&x| x <= local).clamp(1, ARC_SAMPLES);
                 let (l0, l1) = (table[k - 1], table[k]);
-                let f = if l1 > l0 { (local - l0) / (l1 - l0) } else { 0.0 };
+                let f = if l1 > l0 {
+                    (local - l0) / (l1 - l0)
+                } else {
+                    0.0
+                };
                 let t = ((k - 1) as f64 + f) / ARC_SAMPLES as f64;
                 PathPoint {
                     p: bezier(*p0, *c, *p2, t),
@@ -288,7 +295,8 @@ impl Path {
             if l.s_start > s + horizon {
                 break;
             }
-            if l.s_end < s {
+            // A stop (dead end) no longer binds once reached: the walker turns there and goes on.
+            if l.s_end < s || (l.v == 0.0 && l.s_start <= s + 1e-9) {
                 continue;
             }
             let gap = (l.s_start - s).max(0.0);

@@ -26,7 +26,11 @@ pub(super) fn sample(world: &World, rig: &Rig, n: usize, seed: u64) -> Result<Ve
         .map(|r| {
             let a = f64::from(r.max[0] - r.min[0]) * f64::from(r.max[1] - r.min[1]);
             let tall = r.ceiling_z > r.floor_z;
-            if a.is_finite() && a > 0.0 && tall { a } else { 0.0 }
+            if a.is_finite() && a > 0.0 && tall {
+                a
+            } else {
+                0.0
+            }
         })
         .collect();
     if !areas.iter().any(|a| *a > 0.0) {

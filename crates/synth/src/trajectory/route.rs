@@ -59,7 +59,9 @@ impl<'w> Graph<'w> {
             }
             let len = (pos_of(world, a) - pos_of(world, b)).norm();
             if !len.is_finite() {
-                return Err(config(format!("walk graph edge {i} has a non-finite length")));
+                return Err(config(format!(
+                    "walk graph edge {i} has a non-finite length"
+                )));
             }
             adj[a].push((b, len));
             adj[b].push((a, len));
@@ -139,7 +141,11 @@ impl<'w> Graph<'w> {
         let here = last.translation;
         let here_storey = last_place.map(|p| (p.building, p.storey));
         let here_f32 = nalgebra::Point3::from(here.cast::<f32>());
-        let here_region = self.world.regions.iter().position(|reg| reg.contains(&here_f32));
+        let here_region = self
+            .world
+            .regions
+            .iter()
+            .position(|reg| reg.contains(&here_f32));
         let mut strong = Vec::new();
         let mut weak = Vec::new();
         for i in 0..self.adj.len() {

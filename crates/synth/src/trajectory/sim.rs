@@ -181,7 +181,14 @@ pub(crate) fn simulate(
 
     let mut out = Vec::with_capacity(frames);
     for i in 0..frames {
-        out.push(frame(world, &w, &path, s, v, yaw, pitch, phase, t0 + i as f64 / cfg.fps)?);
+        let state = Kinematics {
+            s,
+            v,
+            yaw,
+            pitch,
+            phase,
+        };
+        out.push(frame(world, &w, &path, &state, t0 + i as f64 / cfg.fps)?);
         for _ in 0..substeps {
             t += dt;
             // Pauses.
@@ -292,20 +299,31 @@ fn start_pause(t: f64, yaw: f64, len: [f64; 2], r: &mut impl Rng) -> Pause {
     }
 }
 
+/// The walker's state at a frame.
+#[derive(Clone, Copy)]
+struct Kinematics {
+    /// Arc length along the path, metres.
+    s: f64,
+    /// Speed, m/s.
+    v: f64,
+    /// Heading (yaw), radians.
+    yaw: f64,
+    /// Pitch before head bob, radians (positive looks up).
+    pitch: f64,
+    /// Stride phase, radians.
+    phase: f64,
+}
+
 /// The labelled pose of the walker's state. `phase` is the stride phase: the head rises and
 /// falls twice per stride (once per step) and sways and rolls once.
-#[allow(clippy::too_many_arguments)]
-fn frame(
-    world: &World,
-    w: &Walker,
-    path: &Path,
-    s: f64,
-    v: f64,
-    yaw: f64,
-    pitch: f64,
-    phase: f64,
-    t: f64,
-) -> Result<PosedFrame> {
+fn frame(world: &World, w: &Walker, path: &Path, k: &Kinematics, t: f64) -> Result<PosedFrame> {
+    let Kinematics {
+        s,
+        v,
+        yaw,
+        pitch,
+        phase,
+    } = *k;
     let (ground, _, region) = w.ground(path, s);
     let pose = if w.forward {
         let a = (v / 1.2).clamp(0.0, 1.25) * (w.bob / BOB_REF);

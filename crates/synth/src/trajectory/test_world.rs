@@ -94,20 +94,20 @@ pub(crate) fn world() -> World {
         region,
     };
     let nodes = vec![
-        n(-2.5, 0.0, 0.0, STAIRS_0),   // 0 a0
-        n(0.0, 0.0, 0.0, CORRIDOR_A),  // 1 c0
-        n(5.0, 0.0, 0.0, CORRIDOR_A),  // 2 c1
-        n(10.0, 0.0, 0.0, CORRIDOR_A), // 3 c2
-        n(15.0, 0.0, 0.0, CORRIDOR_A), // 4 c3
-        n(20.0, 0.0, 0.0, CORRIDOR_A), // 5 c4
-        n(20.0, 5.0, 0.0, CORRIDOR_B), // 6 l1
+        n(-2.5, 0.0, 0.0, STAIRS_0),    // 0 a0
+        n(0.0, 0.0, 0.0, CORRIDOR_A),   // 1 c0
+        n(5.0, 0.0, 0.0, CORRIDOR_A),   // 2 c1
+        n(10.0, 0.0, 0.0, CORRIDOR_A),  // 3 c2
+        n(15.0, 0.0, 0.0, CORRIDOR_A),  // 4 c3
+        n(20.0, 0.0, 0.0, CORRIDOR_A),  // 5 c4
+        n(20.0, 5.0, 0.0, CORRIDOR_B),  // 6 l1
         n(20.0, 10.0, 0.0, CORRIDOR_B), // 7 l2
         n(20.0, 15.0, 0.0, CORRIDOR_B), // 8 l3
-        n(10.0, 3.5, 0.0, ROOM),       // 9 r
-        n(-2.5, 5.0, 3.5, STAIRS_1),   // 10 a1
-        n(0.0, 5.0, 3.5, CORRIDOR_C),  // 11 d0
-        n(10.0, 5.0, 3.5, CORRIDOR_C), // 12 d1
-        n(20.0, 5.0, 3.5, CORRIDOR_C), // 13 d2
+        n(10.0, 3.5, 0.0, ROOM),        // 9 r
+        n(-2.5, 5.0, 3.5, STAIRS_1),    // 10 a1
+        n(0.0, 5.0, 3.5, CORRIDOR_C),   // 11 d0
+        n(10.0, 5.0, 3.5, CORRIDOR_C),  // 12 d1
+        n(20.0, 5.0, 3.5, CORRIDOR_C),  // 13 d2
     ];
     let edges = vec![
         [0, 1],
@@ -147,11 +147,35 @@ pub(crate) fn world() -> World {
         ..Material::plain("poster", [0.9, 0.2, 0.2])
     });
     // Floor and a wall of corridor A, a poster on the wall.
-    quad(&mut world, [-1.0, -1.0, 0.0], [21.0, -1.0, 0.0], [21.0, 1.0, 0.0], floor);
+    quad(
+        &mut world,
+        [-1.0, -1.0, 0.0],
+        [21.0, -1.0, 0.0],
+        [21.0, 1.0, 0.0],
+        floor,
+    );
     // The wall along corridor A, with the room's door at x = 9.5–10.5.
-    quad(&mut world, [-1.0, 1.0, 0.0], [9.5, 1.0, 0.0], [9.5, 1.0, 2.8], wall);
-    quad(&mut world, [10.5, 1.0, 0.0], [19.0, 1.0, 0.0], [19.0, 1.0, 2.8], wall);
-    quad(&mut world, [4.0, 0.99, 1.2], [5.0, 0.99, 1.2], [5.0, 0.99, 2.0], poster);
+    quad(
+        &mut world,
+        [-1.0, 1.0, 0.0],
+        [9.5, 1.0, 0.0],
+        [9.5, 1.0, 2.8],
+        wall,
+    );
+    quad(
+        &mut world,
+        [10.5, 1.0, 0.0],
+        [19.0, 1.0, 0.0],
+        [19.0, 1.0, 2.8],
+        wall,
+    );
+    quad(
+        &mut world,
+        [4.0, 0.99, 1.2],
+        [5.0, 0.99, 1.2],
+        [5.0, 0.99, 2.0],
+        poster,
+    );
     // Light panels every 2.5 m along both ground-floor corridors and the first-floor corridor.
     let mut spots = Vec::new();
     for k in 0..9 {

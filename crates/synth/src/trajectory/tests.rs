@@ -60,7 +60,8 @@ fn forward_walk_stays_on_edges_at_head_height_and_looks_level() -> TestResult {
         assert_eq!(frames.len(), 3000);
         let mut worst: f64 = 0.0;
         for f in &frames {
-            let d = edge_distance(&world, &f.pose.translation, [1.2, 1.8], 0.001);
+            // Corners at the ends of stairs blend the slope in, up to ~0.1 m off the edges' z.
+            let d = edge_distance(&world, &f.pose.translation, [1.2, 1.8], 0.12);
             worst = worst.max(d);
             let fz = f.pose.forward().z;
             assert!(fz.abs() < 15f64.to_radians().sin(), "pitch {fz}");
@@ -78,7 +79,7 @@ fn ceiling_walk_looks_up_at_robot_height() -> TestResult {
     let frames = walk(&world, &cfg, 2000, 7)?;
     for f in &frames {
         assert!(f.pose.forward().z > 0.9999, "{:?}", f.pose.forward());
-        let d = edge_distance(&world, &f.pose.translation, [0.3, 0.3], 0.001);
+        let d = edge_distance(&world, &f.pose.translation, [0.3, 0.3], 0.12);
         assert!(d <= 0.3, "{d}");
     }
     // 5 Hz: 0.2 s apart.
@@ -127,10 +128,14 @@ fn speed_yaw_rate_and_pauses_are_natural() -> TestResult {
             }
         }
         assert!(pauses >= 2, "{pauses} pauses");
-        // Camera height above the floor stays in the rig's range (bob included).
+        // Camera height above the floor stays in the rig's range (bob included) off the stairs.
         for f in &frames {
-            let d = edge_distance(&world, &f.pose.translation, [1.2, 1.8], 0.0);
-            assert!(d.is_finite(), "height out of range at t = {}", f.t);
+            let place = f.place.as_ref().ok_or("no place")?;
+            if place.kind == PlaceKind::Stairwell {
+                continue;
+            }
+            let h = f.pose.translation.z - 3.5 * f64::from(place.storey);
+            assert!((1.2..=1.8).contains(&h), "height {h} at t = {}", f.t);
         }
         eprintln!(
             "seed {seed}: median speed {med:.2} m/s, max {max:.2} m/s, max yaw rate \
@@ -153,8 +158,12 @@ fn head_bobs_at_step_frequency() -> TestResult {
         .collect();
     let amp = frames
         .iter()
+        .filter(|f| {
+            f.place
+                .as_ref()
+                .is_some_and(|p| p.storey == 0 && p.kind == PlaceKind::Corridor)
+        })
         .map(|f| f.pose.translation.z)
-        .filter(|z| *z < 3.0)
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), z| {
             (lo.min(z), hi.max(z))
         });
@@ -321,7 +330,10 @@ fn cuts_jump_far_and_steps_between_are_small() -> TestResult {
         let cfg = WalkConfig::for_rig(rig);
         let (frames, cuts) = with_cuts(&world, &cfg, 6, [40, 120], 5)?;
         assert_eq!(cuts.len(), 5);
-        assert!(cuts.windows(2).all(|w| w[1] - w[0] >= 40 && w[1] - w[0] <= 120));
+        assert!(
+            cuts.windows(2)
+                .all(|w| w[1] - w[0] >= 40 && w[1] - w[0] <= 120)
+        );
         assert!(cuts[0] >= 40 && frames.len() - cuts[4] >= 40);
         for (i, w) in frames.windows(2).enumerate() {
             let jump = (w[1].pose.translation - w[0].pose.translation).norm();
@@ -352,7 +364,10 @@ fn camera_fov_is_drawn_from_the_rig_range() -> TestResult {
         fovs.push(f);
     }
     assert!(fovs.iter().any(|f| *f < 55.0) && fovs.iter().any(|f| *f > 65.0));
-    assert_eq!(camera_for(&Rig::forward(), 320, 240, 3)?, camera_for(&Rig::forward(), 320, 240, 3)?);
+    assert_eq!(
+        camera_for(&Rig::forward(), 320, 240, 3)?,
+        camera_for(&Rig::forward(), 320, 240, 3)?
+    );
     let up = camera_for(&Rig::ceiling(), 160, 120, 0)?;
     assert!((up.hfov().to_degrees() - 90.0).abs() < 1e-9);
     assert!(camera_for(&Rig::forward(), 0, 240, 0).is_err());
@@ -396,7 +411,11 @@ fn corners_are_rounded_within_a_fifth_of_a_metre() {
         let p = path.at(s).p;
         // Distance to the L of the first two edges (the way back lies on the second).
         let d1 = if p.x <= 5.0 { p.y.abs() } else { f64::INFINITY };
-        let d2 = if p.y >= 0.0 { (p.x - 5.0).abs() } else { f64::INFINITY };
+        let d2 = if p.y >= 0.0 {
+            (p.x - 5.0).abs()
+        } else {
+            f64::INFINITY
+        };
         worst = worst.max(d1.min(d2));
         s += 0.01;
     }
@@ -404,4 +423,92 @@ fn corners_are_rounded_within_a_fifth_of_a_metre() {
     // A speed limit lies at the corner and a stop at the dead end.
     assert!(path.speed_limit(4.0, 0.8, 4.0) < 1.5);
     assert!(path.speed_limit(path.uturns[0] - 1e-6, 0.8, 4.0) < 0.01);
+}
+
+#[test]
+#[ignore]
+fn debug_dump() -> TestResult {
+    use std::io::Write;
+    let world = test_world::world();
+    let seed: u64 = std::env::var("SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(10);
+    let n: usize = std::env::var("N")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(3000);
+    let frames = walk(&world, &WalkConfig::default(), n, seed)?;
+    let mut f = std::fs::File::create("/tmp/walk.csv")?;
+    writeln!(f, "t,x,y,z,heading,storey,kind,dir")?;
+    for fr in &frames {
+        let c = fr.pose.translation;
+        writeln!(
+            f,
+            "{:.2},{:.3},{:.3},{:.3},{:.1},{:?},{:?},{:?}",
+            fr.t,
+            c.x,
+            c.y,
+            c.z,
+            fr.pose.to_pose3(Mount::Forward).heading.to_degrees(),
+            fr.place.as_ref().map(|p| p.storey),
+            fr.place.as_ref().map(|p| p.kind),
+            fr.direction
+        )?;
+    }
+    Ok(())
+}
+
+#[test]
+#[ignore]
+fn debug_default_world() -> TestResult {
+    let world = crate::procedural::default_world(1, crate::Variant::Normal);
+    eprintln!(
+        "nodes {} edges {} regions {} lights {} tris {}",
+        world.walk.nodes.len(),
+        world.walk.edges.len(),
+        world.regions.len(),
+        world.lights.len(),
+        world.triangles.len()
+    );
+    for (rig, n) in [(Rig::forward(), 20000), (Rig::ceiling(), 10000)] {
+        let cfg = WalkConfig::for_rig(rig.clone());
+        let t = std::time::Instant::now();
+        let frames = walk(&world, &cfg, n, 3)?;
+        eprintln!("{n} frames in {:?}", t.elapsed());
+        let mut storeys = std::collections::BTreeMap::new();
+        let mut kinds = std::collections::BTreeMap::new();
+        let mut no_place = 0;
+        for f in &frames {
+            match &f.place {
+                Some(p) => {
+                    *storeys.entry((p.building, p.storey)).or_insert(0) += 1;
+                    *kinds.entry(format!("{:?}", p.kind)).or_insert(0) += 1;
+                }
+                None => no_place += 1,
+            }
+        }
+        eprintln!("{storeys:?} {kinds:?} no place {no_place}");
+        let mut worst: f64 = 0.0;
+        let [lo, hi] = rig.height_range().map(f64::from);
+        for f in &frames {
+            worst = worst.max(edge_distance(&world, &f.pose.translation, [lo, hi], 0.15));
+        }
+        eprintln!("worst edge distance {worst}");
+        let steps = xy_steps(&frames);
+        eprintln!("median speed {}", median(steps.iter().map(|s| s * cfg.fps).filter(|v| *v > 0.05).collect()));
+        let rp = random_poses(&world, &rig, 2000, 1)?;
+        eprintln!("random poses ok {}", rp.len());
+        let (fr, cuts) = with_cuts(&world, &cfg, 10, [50, 150], 2)?;
+        eprintln!("cuts {cuts:?} of {}", fr.len());
+    }
+    let mut w2 = world.clone();
+    let t = std::time::Instant::now();
+    crate::variants::apply(&mut w2, crate::Variant::SomeLightsOff, 1);
+    eprintln!("lights off {} / {} in {:?}", w2.lights.iter().filter(|l| !l.on).count(), w2.lights.len(), t.elapsed());
+    let mut w3 = world.clone();
+    let n = crate::variants::Crowd::suggested_count(&w3);
+    let crowd = crate::variants::Crowd::new(&mut w3, n, 1);
+    eprintln!("crowd {} tris {}", crowd.len(), crowd.triangles_at(&w3, 10.0).len());
+    Ok(())
 }

@@ -154,10 +154,38 @@ impl Crowd {
     }
 }
 
+impl Crowd {
+    /// As [`Crowd::triangles_at`], leaving out anyone whose body would come within
+    /// `clearance_m` (horizontally) of `camera`: people walk through the camera's path
+    /// unaware of it, and a camera inside a figure would show nothing but a shirt.
+    pub fn triangles_clear_of(
+        &self,
+        world: &World,
+        t: f64,
+        camera: &Point3<f64>,
+        clearance_m: f64,
+    ) -> Vec<Triangle> {
+        let mut out = Vec::with_capacity(self.people.len() * 72);
+        for p in &self.people {
+            let Some(f) = p.figure(world, t) else {
+                continue;
+            };
+            let at = f.position.cast::<f64>();
+            let dxy = (at.xy() - camera.xy()).norm();
+            let level = camera.z >= at.z - 0.5 && camera.z <= at.z + p.height + 0.5;
+            if level && dxy < clearance_m + p.width / 2.0 + 0.15 {
+                continue;
+            }
+            p.body(&f, &mut out);
+        }
+        out
+    }
+}
+
 impl Person {
     fn figure(&self, world: &World, t: f64) -> Option<Figure> {
         let total = *self.cum.last()?;
-        if !(total > 0.0) || !t.is_finite() {
+        if total.is_nan() || total <= 0.0 || !t.is_finite() {
             return None;
         }
         let u = self.offset0 + self.speed * t;
@@ -227,7 +255,11 @@ impl Person {
             z,
             foot_shift: Vector3::zeros(),
         };
-        cuboid(out, part([self.width as f32 / 2.0, 0.12], [hip, 0.82 * h]), self.shirt);
+        cuboid(
+            out,
+            part([self.width as f32 / 2.0, 0.12], [hip, 0.82 * h]),
+            self.shirt,
+        );
         cuboid(out, part([0.05, 0.05], [0.82 * h, 0.86 * h]), self.skin);
         cuboid(out, part([0.085, 0.1], [0.86 * h, 0.96 * h]), self.skin);
         cuboid(out, part([0.09, 0.105], [0.96 * h, h]), self.hair);

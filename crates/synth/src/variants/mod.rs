@@ -135,6 +135,9 @@ fn circuits(world: &World, lights: &[usize]) -> Vec<Vec<usize>> {
     out
 }
 
+/// A 1 m cell of space.
+type Cell = (i64, i64, i64);
+
 /// Gives every fixture triangle whose nearest light (of that fixture material, within 1.5 m) is
 /// off a dark, non-emissive copy of its material. One copy per material serves all its
 /// switched-off fixtures.
@@ -150,14 +153,8 @@ fn darken_fixtures(world: &mut World) {
         return;
     }
     // Lights of each affected material, binned in 1 m cells.
-    let cell = |p: &Point3<f32>| {
-        (
-            p.x.floor() as i64,
-            p.y.floor() as i64,
-            p.z.floor() as i64,
-        )
-    };
-    let mut bins: HashMap<(MaterialId, (i64, i64, i64)), Vec<usize>> = HashMap::new();
+    let cell = |p: &Point3<f32>| (p.x.floor() as i64, p.y.floor() as i64, p.z.floor() as i64);
+    let mut bins: HashMap<(MaterialId, Cell), Vec<usize>> = HashMap::new();
     for (i, l) in world.lights.iter().enumerate() {
         if let Some(m) = l.fixture
             && affected.contains(&m)
@@ -213,7 +210,8 @@ fn swap_textures(world: &mut World, seed: u64) {
     let shift = uf(90.0, 270.0);
     for m in &mut world.materials {
         let before = m.color;
-        let glowing = m.emissive > 0.0 || matches!(m.pattern, Pattern::LightPanel | Pattern::Window);
+        let glowing =
+            m.emissive > 0.0 || matches!(m.pattern, Pattern::LightPanel | Pattern::Window);
         m.color = if glowing {
             // Lamps and sky change colour temperature, not hue: a pink ceiling panel would be
             // no building anyone films.

@@ -59,7 +59,11 @@ fn dim_daylight_and_disaster_change_light_and_air() {
     let base = test_world::world();
     let mut dim = base.clone();
     apply(&mut dim, Variant::Dim, 0);
-    assert!(dim.lights.iter().all(|l| l.on && (l.intensity - 0.3).abs() < 1e-6));
+    assert!(
+        dim.lights
+            .iter()
+            .all(|l| l.on && (l.intensity - 0.3).abs() < 1e-6)
+    );
     assert!(dim.atmosphere.ambient < base.atmosphere.ambient);
     assert!(dim.atmosphere.daylight <= 0.1);
 
@@ -115,7 +119,12 @@ fn texture_swap_changes_every_material_colour_and_seed() {
 
 #[test]
 fn hsv_round_trip() {
-    for c in [[0.2, 0.5, 0.9], [1.0, 0.0, 0.0], [0.3, 0.3, 0.3], [0.9, 0.8, 0.1]] {
+    for c in [
+        [0.2, 0.5, 0.9],
+        [1.0, 0.0, 0.0],
+        [0.3, 0.3, 0.3],
+        [0.9, 0.8, 0.1],
+    ] {
         let back = hsv_to_rgb(rgb_to_hsv(c));
         for k in 0..3 {
             assert!((back[k] - c[k]).abs() < 1e-5, "{c:?} -> {back:?}");
@@ -126,14 +135,15 @@ fn hsv_round_trip() {
 #[test]
 fn crowd_walks_the_edges_and_moves_with_time() -> TestResult {
     let mut world = test_world::world();
+    let base = world.clone();
     let materials = world.materials.len();
     let count = Crowd::suggested_count(&world);
     assert_eq!(count, 9);
     let crowd = Crowd::new(&mut world, count, 5);
     assert_eq!(crowd.len(), count);
     assert!(world.materials.len() >= materials + 10);
-    let again = Crowd::new(&mut world.clone(), count, 5);
-    assert_eq!(crowd, again);
+    let mut other = base.clone();
+    assert!(Crowd::new(&mut other, count, 5) == crowd && other == world);
     // Corridors each get people at t = 0.
     let at0 = crowd.figures_at(&world, 0.0);
     let corridors: std::collections::BTreeSet<Option<u16>> = at0
@@ -172,6 +182,11 @@ fn crowd_walks_the_edges_and_moves_with_time() -> TestResult {
         .map(|t| t.v[0].coords.dot(&t.v[1].coords.cross(&t.v[2].coords)) / 6.0)
         .sum();
     assert!(vol > 0.02 && vol < 0.2, "{vol}");
+    // A camera standing where someone walks does not end up inside them.
+    let f = crowd.figures_at(&world, 3.0)[0];
+    let camera = f.position.cast::<f64>() + nalgebra::Vector3::new(0.0, 0.0, 1.5);
+    let clear = crowd.triangles_clear_of(&world, 3.0, &camera, 0.3);
+    assert_eq!(clear.len(), (count - 1) * 72);
     // No walk graph, no people (and no panic).
     let mut empty = World::default();
     assert!(Crowd::new(&mut empty, 5, 1).is_empty());
