@@ -32,33 +32,63 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (w, h) in [(160u32, 120u32), (320, 240)] {
         let camera = Camera::from_hfov(w, h, 60f64.to_radians())?;
         for mode in RenderMode::ALL {
+            // RENDER_SPEED_ONLY=textured@160 (say) measures one case, for profiling.
+            if let Ok(only) = std::env::var("RENDER_SPEED_ONLY") {
+                if only != format!("{}@{w}", mode.name()) {
+                    continue;
+                }
+            }
             let opts = RenderOptions {
                 mode,
                 ..RenderOptions::default()
             };
             let mut r = Renderer::new();
             r.render(&scene, &camera, &poses[0], &opts, &[])?;
-            let (mut tested, mut drawn) = (0u64, 0u64);
+            let mut sum = [0u64; 6];
             let start = Instant::now();
+            let cpu0 = thread_cpu_ns();
             for (i, pose) in poses.iter().enumerate() {
                 let o = RenderOptions {
                     seed: i as u64,
                     ..opts.clone()
                 };
                 r.render(&scene, &camera, pose, &o, &[])?;
-                tested += r.stats().triangles_tested as u64;
-                drawn += r.stats().triangles_drawn as u64;
+                let s = r.stats();
+                for (a, b) in sum.iter_mut().zip([
+                    s.cells_in_view as u64,
+                    s.cells_occluded as u64,
+                    s.triangles_tested as u64,
+                    s.triangles_drawn as u64,
+                    s.raster_ns,
+                    s.shade_ns,
+                ]) {
+                    *a += b;
+                }
             }
-            let secs = start.elapsed().as_secs_f64();
+            let wall = start.elapsed().as_secs_f64();
+            let cpu = thread_cpu_ns().zip(cpu0).map(|(b, a)| (b - a) as f64 * 1e-9);
+            let n = poses.len() as f64;
+            let secs = cpu.unwrap_or(wall);
+            let per = |k: usize| sum[k] as f64 / n;
             println!(
-                "{w}x{h} {:<9} {:>7.0} frames/s  {:>6.3} ms/frame  (triangles set up {:.0}, drawn {:.0} per frame)",
+                "{w}x{h} {:<9} {:>6.0} frames/s  {:>6.3} ms/frame (CPU time; wall {:.3} ms)  \
+                 raster {:.3} ms, shade {:.3} ms; cells {:.0} in view, {:.0} hidden; \
+                 triangles {:.0} set up, {:.0} drawn",
                 mode.name(),
-                poses.len() as f64 / secs,
-                secs * 1e3 / poses.len() as f64,
-                tested as f64 / poses.len() as f64,
-                drawn as f64 / poses.len() as f64
+                n / secs,
+                secs * 1e3 / n,
+                wall * 1e3 / n,
+                per(4) * 1e-6,
+                per(5) * 1e-6,
+                per(0),
+                per(1),
+                per(2),
+                per(3),
             );
         }
+    }
+    if std::env::var("RENDER_SPEED_ONLY").is_ok() {
+        return Ok(());
     }
     // Variants that cost more: a distorted lens, shadow rays.
     let lens = Camera::new(
@@ -79,10 +109,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut r = Renderer::new();
         let n = if shadows { frames.min(200) } else { frames };
         let start = Instant::now();
+        let cpu0 = thread_cpu_ns();
         for pose in &poses[..n] {
             r.render(&scene, &camera, pose, &opts, &[])?;
         }
-        let secs = start.elapsed().as_secs_f64();
+        let wall = start.elapsed().as_secs_f64();
+        let secs = thread_cpu_ns()
+            .zip(cpu0)
+            .map_or(wall, |(b, a)| (b - a) as f64 * 1e-9);
         println!(
             "160x120 textured, {label:<9} {:>7.0} frames/s  {:>6.3} ms/frame",
             n as f64 / secs,
@@ -114,6 +148,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("images written to {dir}");
     }
     Ok(())
+}
+
+/// CPU time of this thread, nanoseconds (Linux; `None` elsewhere): the machine may be shared, and
+/// wall-clock time would then count other processes' time.
+fn thread_cpu_ns() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    s.split_whitespace().next()?.parse().ok()
 }
 
 /// A walk along the corridors of every storey, turning to look into rooms now and then.

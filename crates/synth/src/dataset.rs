@@ -141,14 +141,8 @@ pub fn build_world(cfg: &SynthConfig) -> Result<(World, Vec<String>)> {
 /// The camera rig of a camera kind.
 pub fn rig_of(kind: CameraKind) -> Rig {
     match kind {
-        CameraKind::Forward => Rig::Forward {
-            height_m: [1.2, 1.8],
-            hfov_deg: [50.0, 70.0],
-        },
-        CameraKind::Ceiling => Rig::Ceiling {
-            height_m: 0.3,
-            hfov_deg: 90.0,
-        },
+        CameraKind::Forward => Rig::forward(),
+        CameraKind::Ceiling => Rig::ceiling(),
     }
 }
 
@@ -175,7 +169,7 @@ pub fn run(cfg: &SynthConfig, out: &Path, progress: &(dyn Fn(usize) + Sync)) -> 
     let (mut world, warnings) = build_world(cfg)?;
     let crowd = (cfg.variant == Variant::People).then(|| Crowd::new(&mut world, 12, cfg.seed));
     let rig = rig_of(cfg.camera);
-    let camera = trajectory::camera_for(&rig, cfg.width, cfg.height, cfg.seed);
+    let camera = trajectory::camera_for(&rig, cfg.width, cfg.height, cfg.seed)?;
     let (shots, cuts, fps) = plan_shots(&world, cfg, &rig)?;
     let scene = RenderScene::new(&world)?;
 
@@ -229,10 +223,7 @@ pub fn run(cfg: &SynthConfig, out: &Path, progress: &(dyn Fn(usize) + Sync)) -> 
 
 /// Draws the poses of every sequence: `(shots, gold cuts as frame indices, frame rate)`.
 fn plan_shots(world: &World, cfg: &SynthConfig, rig: &Rig) -> Result<(Vec<Shot>, Vec<u64>, f64)> {
-    let walk_cfg = WalkConfig {
-        rig: rig.clone(),
-        ..WalkConfig::default()
-    };
+    let walk_cfg = WalkConfig::for_rig(rig.clone());
     let mut shots = Vec::with_capacity(cfg.frames);
     let mut cuts = Vec::new();
     for seq in 0..cfg.sequences {
@@ -244,9 +235,10 @@ fn plan_shots(world: &World, cfg: &SynthConfig, rig: &Rig) -> Result<(Vec<Shot>,
             Sampler::Random => trajectory::random_poses(world, rig, n, seed)?,
             Sampler::WalkWithCuts => {
                 let segments = (n / 40).clamp(2, 8);
-                let per_segment = n.div_ceil(segments);
+                // Segment lengths vary; the shortest draw still covers n frames in total.
+                let lo = n.div_ceil(segments);
                 let (mut frames, seq_cuts) =
-                    trajectory::with_cuts(world, &walk_cfg, segments, per_segment, seed)?;
+                    trajectory::with_cuts(world, &walk_cfg, segments, [lo, lo + lo / 2], seed)?;
                 frames.truncate(n);
                 let base = shots.len() as u64;
                 cuts.extend(seq_cuts.into_iter().filter(|&c| c < n).map(|c| base + c as u64));

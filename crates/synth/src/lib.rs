@@ -6,9 +6,11 @@
 //! OpenCV axes). Depth images hold z along the optical axis in metres, as 7-Scenes and TUM do.
 #![deny(missing_docs)]
 
+pub mod dataset;
 mod error;
 pub mod import;
 pub mod procedural;
+pub mod preview;
 pub mod render;
 pub mod trajectory;
 pub mod variants;

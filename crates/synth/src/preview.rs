@@ -15,16 +15,13 @@ const PREVIEW_FRAME: usize = 20;
 /// PNG bytes of the contact sheet: one row per variant, one column per render mode.
 pub fn contact_sheet(cfg: &SynthConfig) -> Result<Vec<u8>> {
     let rig = rig_of(cfg.camera);
-    let camera = trajectory::camera_for(&rig, cfg.width, cfg.height, cfg.seed);
+    let camera = trajectory::camera_for(&rig, cfg.width, cfg.height, cfg.seed)?;
     let normal = SynthConfig {
         variant: Variant::Normal,
         ..cfg.clone()
     };
     let (world, _) = build_world(&normal)?;
-    let walk_cfg = WalkConfig {
-        rig,
-        ..WalkConfig::default()
-    };
+    let walk_cfg = WalkConfig::for_rig(rig);
     let walk = trajectory::walk(&world, &walk_cfg, PREVIEW_FRAME + 1, cfg.seed)?;
     let shot = walk
         .last()

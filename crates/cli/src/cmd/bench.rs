@@ -129,7 +129,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         text.push_str(&format!(
             "{:<8}{:>9}{:>12}{:>16}{:>12}{:>10}\n",
             "stage", "frames", "ms", "ms +report", "peer ms", "ratio"
-        );
+        ));
         for s in &out.stages {
             let opt =
                 |v: Option<f64>, digits: usize| v.map_or("-".into(), |v| format!("{v:.digits$}"));
@@ -160,15 +160,12 @@ fn bench_render(args: &BenchArgs) -> Result<Vec<RenderFigures>> {
     let (world, _) = synth::dataset::build_world(&cfg)?;
     let scene = RenderScene::new(&world)?;
     let rig = synth::dataset::rig_of(cfg.camera);
-    let walk_cfg = synth::trajectory::WalkConfig {
-        rig: rig.clone(),
-        ..Default::default()
-    };
+    let walk_cfg = synth::trajectory::WalkConfig::for_rig(rig.clone());
     let walk = synth::trajectory::walk(&world, &walk_cfg, frames, cfg.seed)?;
     let all = rayon::current_num_threads();
     let mut figures = Vec::new();
     for (w, h) in [(160u32, 120u32), (320, 240)] {
-        let camera = synth::trajectory::camera_for(&rig, w, h, cfg.seed);
+        let camera = synth::trajectory::camera_for(&rig, w, h, cfg.seed)?;
         for mode in [RenderMode::Shaded, RenderMode::Textured, RenderMode::Edges, RenderMode::Gradmag] {
             let opts = RenderOptions {
                 mode,

@@ -284,34 +284,69 @@ pub(crate) fn style_slice<R: Rng + ?Sized>(
     let lx = axis_table(w, span(w), 0.0, LIGHT_CELLS - 1);
     let ly = axis_table(h, span(h), 0.0, LIGHT_CELLS - 1);
 
-    let mut trow = vec![0f32; tgw];
-    let mut lrows = vec![0f32; (LIGHT_CELLS + 1) * cn];
+    let ctx = Shading {
+        w,
+        vals: &vals,
+        k,
+        offsets: &offsets,
+        amp,
+        texture: &texture,
+        tx: &tx,
+        ty: &ty,
+        light: &light,
+        lx: &lx,
+        ly: &ly,
+    };
+    if cn == 1 {
+        shade::<1>(&ctx, dst);
+    } else {
+        shade::<3>(&ctx, dst);
+    }
+}
+
+/// Everything the final per-pixel pass needs.
+struct Shading<'a> {
+    w: usize,
+    vals: &'a [f32],
+    k: f32,
+    offsets: &'a [f32],
+    amp: f32,
+    texture: &'a Field,
+    tx: &'a [(usize, f32)],
+    ty: &'a [(usize, f32)],
+    light: &'a [Field],
+    lx: &'a [(usize, f32)],
+    ly: &'a [(usize, f32)],
+}
+
+/// Steps 3–5 per pixel: conformal fit, texture, light; `C` channels known at compile time so the
+/// channel loops unroll.
+fn shade<const C: usize>(s: &Shading<'_>, dst: &mut [u8]) {
+    const L: usize = LIGHT_CELLS + 1;
+    let offsets: [f32; C] = std::array::from_fn(|c| s.offsets.get(c).copied().unwrap_or(0.0));
+    let mut trow = vec![0f32; s.texture.gw];
+    let mut lrows = [[0f32; L]; C];
     for (y, (drow, vrow)) in dst
-        .chunks_exact_mut(w * cn)
-        .zip(vals.chunks_exact(w * cn))
+        .chunks_exact_mut(s.w * C)
+        .zip(s.vals.chunks_exact(s.w * C))
         .enumerate()
     {
-        texture.row(ty[y].0, ty[y].1, &mut trow);
-        for (c, f) in light.iter().enumerate() {
-            f.row(
-                ly[y].0,
-                ly[y].1,
-                &mut lrows[c * (LIGHT_CELLS + 1)..(c + 1) * (LIGHT_CELLS + 1)],
-            );
+        s.texture.row(s.ty[y].0, s.ty[y].1, &mut trow);
+        for (f, lr) in s.light.iter().zip(lrows.iter_mut()) {
+            f.row(s.ly[y].0, s.ly[y].1, lr);
         }
-        for (x, (o, v)) in drow
-            .chunks_exact_mut(cn)
-            .zip(vrow.chunks_exact(cn))
-            .enumerate()
+        for ((o, v), (&(ti, tt), &(li, lt))) in drow
+            .chunks_exact_mut(C)
+            .zip(vrow.chunks_exact(C))
+            .zip(s.tx.iter().zip(s.lx.iter()))
         {
-            let (ti, tt) = tx[x];
-            let n = trow[ti] + (trow[ti + 1] - trow[ti]) * tt;
-            let tex = 1.0 + amp * n;
-            let (li, lt) = lx[x];
-            for c in 0..cn {
-                let lr = &lrows[c * (LIGHT_CELLS + 1)..];
-                let g = lr[li] + (lr[li + 1] - lr[li]) * lt;
-                o[c] = to_byte(255.0 * (k * v[c] + offsets[c]) * tex * g);
+            let (t0, t1) = (trow[ti], trow[ti + 1]);
+            let tex = 255.0 * (1.0 + s.amp * (t0 + (t1 - t0) * tt));
+            let li = li.min(L - 2);
+            for c in 0..C {
+                let (g0, g1) = (lrows[c][li], lrows[c][li + 1]);
+                let g = g0 + (g1 - g0) * lt;
+                o[c] = to_byte((s.k * v[c] + offsets[c]) * tex * g);
             }
         }
     }

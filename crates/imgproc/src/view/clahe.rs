@@ -19,13 +19,14 @@
 //!    rounded to `f32` (no fused multiply-add), then rounded ties-to-even.
 //!
 //! The interpolation walks each row in runs of columns that share the same pair of tiles, so the
-//! four LUT look-ups index `[u8; 256]` arrays by a `u8` and need no bounds checks.
+//! four LUT look-ups index `[u8; 256]` arrays by a `u8` and need no bounds checks; the gathered
+//! values are then blended in one pass over the row that the compiler vectorises.
 
 use image::GrayImage;
 
 use crate::{ImgprocError, Result};
 
-use super::round::{rne, sat_u8};
+use super::round::round_u8;
 
 /// Largest tile grid accepted (per axis); more tiles than this is never a useful view and would
 /// make the padded image and LUT table needlessly large.
@@ -41,6 +42,8 @@ pub(crate) struct ClaheScratch {
     /// Column runs `(start, end, tile_x1, tile_x2)` sharing one pair of tiles.
     runs: Vec<(usize, usize, usize, usize)>,
     xmap: Vec<usize>,
+    /// The four LUT values of each pixel of a row, gathered before blending.
+    gathered: Vec<u8>,
 }
 
 /// Checks CLAHE parameters (shared with the spec's validation).
@@ -102,7 +105,6 @@ pub(crate) fn clahe_with(
 
     let lut_scale = 255.0f32 / area as f32;
     let clip_limit = ((clip as f64 * area as f64 / 256.0) as i64).max(1) as u32;
-    scratch.luts.clear();
     scratch.luts.resize(t * t, [0; 256]);
     for ty in 0..t {
         for tx in 0..t {
@@ -113,11 +115,15 @@ pub(crate) fn clahe_with(
                 }
             }
             clip_histogram(&mut hist, clip_limit);
-            let lut = &mut scratch.luts[ty * t + tx];
+            // Cumulative sum (serial), then the scaling in a separate loop that vectorises.
             let mut sum = 0u32;
+            for c in hist.iter_mut() {
+                sum += *c;
+                *c = sum;
+            }
+            let lut = &mut scratch.luts[ty * t + tx];
             for (l, &c) in lut.iter_mut().zip(hist.iter()) {
-                sum += c;
-                *l = sat_u8(rne(sum as f32 * lut_scale));
+                *l = round_u8(c as f32 * lut_scale);
             }
         }
     }
@@ -218,25 +224,35 @@ fn interpolate(
             _ => scratch.runs.push((x, x + 1, t1, t2)),
         }
     }
+    scratch.gathered.resize(4 * w, 0);
     let luts = &scratch.luts;
+    let (g11, rest) = scratch.gathered.split_at_mut(w);
+    let (g12, rest) = rest.split_at_mut(w);
+    let (g21, g22) = rest.split_at_mut(w);
     for (y, (srow, drow)) in src.chunks_exact(w).zip(dst.chunks_exact_mut(w)).take(h).enumerate() {
         let (ty1, ty2, ya) = tile_coord(y, inv_th, t);
         let ya1 = 1.0f32 - ya;
+        // Gather the four LUT values of every pixel (table look-ups do not vectorise) ...
         for &(start, end, tx1, tx2) in &scratch.runs {
-            let l11 = &luts[ty1 * t + tx1];
-            let l12 = &luts[ty1 * t + tx2];
-            let l21 = &luts[ty2 * t + tx1];
-            let l22 = &luts[ty2 * t + tx2];
-            let cols = srow[start..end]
-                .iter()
-                .zip(&mut drow[start..end])
-                .zip(scratch.xa[start..end].iter().zip(&scratch.xa1[start..end]));
-            for ((&v, d), (&xa, &xa1)) in cols {
+            let (l11, l12) = (&luts[ty1 * t + tx1], &luts[ty1 * t + tx2]);
+            let (l21, l22) = (&luts[ty2 * t + tx1], &luts[ty2 * t + tx2]);
+            let cols = srow[start..end].iter().zip(
+                g11[start..end]
+                    .iter_mut()
+                    .zip(&mut g12[start..end])
+                    .zip(g21[start..end].iter_mut().zip(&mut g22[start..end])),
+            );
+            for (&v, ((a, b), (c, d))) in cols {
                 let v = v as usize;
-                let res = (l11[v] as f32 * xa1 + l12[v] as f32 * xa) * ya1
-                    + (l21[v] as f32 * xa1 + l22[v] as f32 * xa) * ya;
-                *d = sat_u8(rne(res));
+                (*a, *b, *c, *d) = (l11[v], l12[v], l21[v], l22[v]);
             }
+        }
+        // ... then blend the whole row with OpenCV's f32 formula, which does.
+        let weights = scratch.xa[..w].iter().zip(&scratch.xa1[..w]);
+        let values = g11.iter().zip(g12.iter()).zip(g21.iter().zip(g22.iter()));
+        for ((d, (&xa, &xa1)), ((&a, &b), (&c, &e))) in drow.iter_mut().zip(weights).zip(values) {
+            let res = (a as f32 * xa1 + b as f32 * xa) * ya1 + (c as f32 * xa1 + e as f32 * xa) * ya;
+            *d = round_u8(res);
         }
     }
 }

@@ -10,7 +10,7 @@ use image::GrayImage;
 
 use crate::{ImgprocError, Result};
 
-use super::round::{rne, sat_u8};
+use super::round::round_u8;
 
 /// Spreads the grey levels of `src` over 0..=255 by its cumulative histogram (OpenCV's
 /// `equalizeHist`); a global, parameter-free contrast normalisation. `dst` must have the size of
@@ -40,7 +40,7 @@ pub fn equalize(src: &GrayImage, dst: &mut GrayImage) -> Result<()> {
     let mut sum = 0u32;
     for i in i0 + 1..256 {
         sum += hist[i];
-        lut[i] = sat_u8(rne(sum as f32 * scale));
+        lut[i] = round_u8(sum as f32 * scale);
     }
     for (d, &s) in dst.iter_mut().zip(src.as_raw()) {
         *d = lut[s as usize];

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::{ImgprocError, Result};
 
-use super::round::{rne, sat_u8};
+use super::round::round_u8;
 
 /// Which 3x3 derivative kernel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -130,7 +130,7 @@ pub fn grad_mag(src: &GrayImage, dst: &mut GrayImage, kernel: Kernel) -> Result<
     let inv_gain = 1.0 / kernel.gain();
     for ((d, &x), &y) in dst.iter_mut().zip(&gx).zip(&gy) {
         let m = ((x * x + y * y) as f32).sqrt();
-        *d = sat_u8(rne(m * inv_gain));
+        *d = round_u8(m * inv_gain);
     }
     Ok(())
 }

@@ -25,7 +25,7 @@ use image::{GrayImage, RgbImage};
 
 use crate::{ImgprocError, Result};
 
-use super::round::{rne, sat_u8};
+use super::round::round_u8;
 
 /// Supplies source rows to the area resizer (`cn` interleaved channels per pixel).
 pub(crate) trait RowSource {
@@ -161,7 +161,7 @@ pub(crate) fn area_resize<R: RowSource>(
         if yt.di != prev_dy {
             let out = &mut dst[prev_dy * width..(prev_dy + 1) * width];
             for ((o, s), b) in out.iter_mut().zip(sum.iter_mut()).zip(buf.iter()) {
-                *o = sat_u8(rne(*s));
+                *o = round_u8(*s);
                 *s = beta * *b;
             }
             prev_dy = yt.di;
@@ -173,7 +173,7 @@ pub(crate) fn area_resize<R: RowSource>(
     }
     let out = &mut dst[prev_dy * width..(prev_dy + 1) * width];
     for (o, s) in out.iter_mut().zip(sum.iter()) {
-        *o = sat_u8(rne(*s));
+        *o = round_u8(*s);
     }
 }
 
@@ -237,7 +237,7 @@ fn area_integer<R: RowSource>(
             }
         } else {
             for (o, &a) in out.iter_mut().zip(acc.iter()) {
-                *o = sat_u8(rne(a as f32 * scale));
+                *o = round_u8(a as f32 * scale);
             }
         }
     }

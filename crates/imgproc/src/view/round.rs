@@ -2,23 +2,21 @@
 //! rounding mode), then clamp to 0..=255.
 //!
 //! Why by hand: `f32::round_ties_even` becomes a library call on baseline x86-64 (no SSE4.1),
-//! which would dominate the per-pixel loops; adding and subtracting 2^23 rounds with the FPU's
-//! own ties-to-even mode in two vectorisable instructions.
+//! and Rust's saturating `as u8` turns into scalar min/max per value; both would dominate the
+//! per-pixel loops. Adding 2^23 makes the FPU round to an integer with its own ties-to-even mode,
+//! and that integer is then the low bits of the float's representation, so rounding and clamping
+//! are three vectorisable integer/float instructions.
 
 /// 2^23: from here on `f32` has no fraction bits.
 const MAGIC: f32 = 8_388_608.0;
+/// Bit pattern of [`MAGIC`].
+const MAGIC_BITS: i32 = 0x4B00_0000;
 
-/// Rounds `x` to the nearest integer, ties to even, for `0 <= x < 2^23` (what pixel arithmetic
-/// produces). Negative inputs give a value `<= 0`, which [`sat_u8`] clamps to 0 as OpenCV does.
+/// `x` rounded to the nearest integer (ties to even) and clamped to 0..=255, for
+/// `-2^22 < x < 2^23` (pixel arithmetic stays far inside this range).
 #[inline(always)]
-pub(crate) fn rne(x: f32) -> f32 {
-    (x + MAGIC) - MAGIC
-}
-
-/// Clamps to `0..=255` and converts (Rust's float-to-int `as` saturates; NaN gives 0).
-#[inline(always)]
-pub(crate) fn sat_u8(x: f32) -> u8 {
-    x as u8
+pub(crate) fn round_u8(x: f32) -> u8 {
+    ((x + MAGIC).to_bits() as i32 - MAGIC_BITS).clamp(0, 255) as u8
 }
 
 #[cfg(test)]
@@ -27,12 +25,25 @@ mod tests {
 
     #[test]
     fn ties_go_to_even_and_values_saturate() {
-        assert_eq!(rne(0.5), 0.0);
-        assert_eq!(rne(1.5), 2.0);
-        assert_eq!(rne(2.5), 2.0);
-        assert_eq!(rne(2.500_001), 3.0);
-        assert_eq!(rne(254.49), 254.0);
-        assert_eq!(sat_u8(rne(300.2)), 255);
-        assert_eq!(sat_u8(rne(-3.0)), 0);
+        let cases = [
+            (0.5, 0),
+            (1.5, 2),
+            (2.5, 2),
+            (2.500_001, 3),
+            (254.49, 254),
+            (254.5, 254),
+            (255.5, 255),
+            (300.2, 255),
+            (-0.4, 0),
+            (-3.0, 0),
+            (-1000.0, 0),
+            (1e6, 255),
+        ];
+        for (x, want) in cases {
+            assert_eq!(round_u8(x), want, "{x}");
+        }
+        for v in 0..=255u8 {
+            assert_eq!(round_u8(v as f32), v);
+        }
     }
 }

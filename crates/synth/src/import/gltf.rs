@@ -1103,7 +1103,7 @@ pub(super) mod tests {
     /// `INDOORLOC_BLESS=1 cargo test -p synth import_gltf_fixture_is_current`.
     #[test]
     fn import_gltf_fixture_is_current() -> TestResult {
-        let (json, bin) = room_gltf(Texture::Uri("room.png"), None);
+        let (_, bin) = room_gltf(Texture::Uri("room.png"), None);
         let uri = format!(
             "data:application/octet-stream;base64,{}",
             base64_encode(&bin)
@@ -1218,7 +1218,8 @@ pub(super) mod tests {
 
     #[test]
     fn import_gltf_empty_and_corrupt_files_are_errors() -> TestResult {
-        let cases: Vec<(&str, Box<dyn Fn(String) -> String>, &str)> = vec![
+        type Edit = Box<dyn Fn(String) -> String>;
+        let cases: Vec<(&str, Edit, &str)> = vec![
             (
                 "nomesh.gltf",
                 Box::new(|j: String| j.replace(r#""mesh": 0, "#, "")),
@@ -1316,8 +1317,7 @@ pub(super) mod tests {
         })?;
         // Rewrite the two index runs: floor 0 1 2 3 (fan), ceiling 4 7 5 6 (strip).
         let text = std::fs::read_to_string(&path)?;
-        let (json, mut bin) = room_gltf(Texture::Uri("room.png"), None);
-        let _ = json;
+        let (_, mut bin) = room_gltf(Texture::Uri("room.png"), None);
         for (k, i) in [0u16, 1, 2, 3].iter().enumerate() {
             bin[160 + 2 * k..162 + 2 * k].copy_from_slice(&i.to_le_bytes());
         }

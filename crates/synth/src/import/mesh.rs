@@ -220,7 +220,7 @@ pub(super) fn finish(mut soup: Soup, opts: &ImportOptions) -> Result<(World, Imp
             e1[0] * e2[1] - e1[1] * e2[0],
         ];
         let area = 0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-        if !(area >= MIN_AREA_M2) {
+        if area.is_nan() || area < MIN_AREA_M2 {
             degenerate += 1;
             continue;
         }
@@ -582,6 +582,36 @@ mod tests {
             let z = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
             assert!(z < 0.0);
         }
+        Ok(())
+    }
+
+    #[test]
+    fn import_extent_limits() -> TestResult {
+        let opts = ImportOptions::default();
+        let path = Path::new("m.obj");
+        for (size, ok) in [
+            (400.0, true),
+            (0.5, true),
+            (10_000.0, true),
+            (0.4, false),
+            (12_000.0, false),
+        ] {
+            let result = check_extent(path, [0.0; 3], [size, 1.0_f64.min(size), 0.0], &opts);
+            assert_eq!(result.is_ok(), ok, "{size} m: {result:?}");
+        }
+        // A 12 m building in millimetres read as metres.
+        let msg = check_extent(path, [0.0; 3], [12_000.0, 8_000.0, 3_000.0], &opts)
+            .err()
+            .ok_or("12 km accepted")?
+            .to_string();
+        assert!(
+            msg.starts_with("m.obj: the model is 12000 m across"),
+            "{msg}"
+        );
+        assert!(
+            msg.contains("--scale 0.001 if it is in millimetres"),
+            "{msg}"
+        );
         Ok(())
     }
 

@@ -54,7 +54,7 @@ pub(super) fn assign(world: &mut World) {
     for t in &world.triangles {
         let n = t.normal();
         let area = t.area();
-        if n == Vector3::zeros() || !(area > 0.0) {
+        if n == Vector3::zeros() || area.is_nan() || area <= 0.0 {
             of_tri.push(None);
             continue;
         }

@@ -15,6 +15,7 @@ use super::materials::Materials;
 use super::mesh::{Mesh, R2};
 use super::plan::{Level, RoomKind, ZoneKind};
 use super::rng::{self, Stream};
+use super::walk::lobby_lattice;
 use crate::world::MaterialId;
 use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector3};
 use std::f32::consts::{FRAC_PI_2, PI};
@@ -40,13 +41,29 @@ struct Piece {
 
 impl Piece {
     fn new(size: Vector3<f32>) -> Self {
-        Self { parts: Vec::new(), size }
+        Self {
+            parts: Vec::new(),
+            size,
+        }
     }
 
     /// Adds a box from `(x0, y0, z0)` to `(x1, y1, z1)`.
     #[allow(clippy::too_many_arguments)]
-    fn part(mut self, x0: f32, y0: f32, z0: f32, x1: f32, y1: f32, z1: f32, material: MaterialId) -> Self {
-        self.parts.push(Part { min: Vector3::new(x0, y0, z0), max: Vector3::new(x1, y1, z1), material });
+    fn part(
+        mut self,
+        x0: f32,
+        y0: f32,
+        z0: f32,
+        x1: f32,
+        y1: f32,
+        z1: f32,
+        material: MaterialId,
+    ) -> Self {
+        self.parts.push(Part {
+            min: Vector3::new(x0, y0, z0),
+            max: Vector3::new(x1, y1, z1),
+            material,
+        });
         self
     }
 }
@@ -68,7 +85,11 @@ pub(crate) struct Placed {
 
 /// The world footprint of a `size` piece at `at` turned by `yaw`, lying on its front if `fallen`.
 fn footprint(size: Vector3<f32>, at: Point3<f32>, yaw: f32, fallen: bool) -> R2 {
-    let (w, d0, d1) = if fallen { (size.x, size.y / 2.0, size.y / 2.0 + size.z) } else { (size.x, -size.y / 2.0, size.y / 2.0) };
+    let (w, d0, d1) = if fallen {
+        (size.x, size.y / 2.0, size.y / 2.0 + size.z)
+    } else {
+        (size.x, -size.y / 2.0, size.y / 2.0)
+    };
     let (s, c) = yaw.sin_cos();
     let corners = [(-w / 2.0, d0), (w / 2.0, d0), (w / 2.0, d1), (-w / 2.0, d1)];
     let mut r = R2::new(f32::MAX, f32::MAX, f32::MIN, f32::MIN);
@@ -86,22 +107,46 @@ struct Catalog<'a> {
 
 impl Catalog<'_> {
     fn wood(&self, rng: &mut Stream) -> MaterialId {
-        rng::pick(rng, &self.m.woods).copied().unwrap_or(self.m.cabinet)
+        rng::pick(rng, &self.m.woods)
+            .copied()
+            .unwrap_or(self.m.cabinet)
     }
 
     fn fabric(&self, rng: &mut Stream) -> MaterialId {
-        rng::pick(rng, &self.m.fabrics).copied().unwrap_or(self.m.cabinet)
+        rng::pick(rng, &self.m.fabrics)
+            .copied()
+            .unwrap_or(self.m.cabinet)
     }
 
     fn desk(&self, rng: &mut Stream) -> Piece {
         let w = rng::range(rng, 1.2, 1.6);
         let (d, h) = (0.7, rng::range(rng, 0.72, 0.76));
         let top = self.wood(rng);
-        let leg = if rng::chance(rng, 0.5) { self.m.metal } else { top };
+        let leg = if rng::chance(rng, 0.5) {
+            self.m.metal
+        } else {
+            top
+        };
         Piece::new(Vector3::new(w, d, h))
             .part(-w / 2.0, -d / 2.0, h - 0.03, w / 2.0, d / 2.0, h, top)
-            .part(-w / 2.0, -d / 2.0 + 0.03, 0.0, -w / 2.0 + 0.03, d / 2.0 - 0.03, h - 0.03, leg)
-            .part(w / 2.0 - 0.03, -d / 2.0 + 0.03, 0.0, w / 2.0, d / 2.0 - 0.03, h - 0.03, leg)
+            .part(
+                -w / 2.0,
+                -d / 2.0 + 0.03,
+                0.0,
+                -w / 2.0 + 0.03,
+                d / 2.0 - 0.03,
+                h - 0.03,
+                leg,
+            )
+            .part(
+                w / 2.0 - 0.03,
+                -d / 2.0 + 0.03,
+                0.0,
+                w / 2.0,
+                d / 2.0 - 0.03,
+                h - 0.03,
+                leg,
+            )
     }
 
     /// A chair facing +y (backrest at −y).
@@ -115,8 +160,16 @@ impl Catalog<'_> {
 
     fn cabinet(&self, rng: &mut Stream, tall: bool) -> Piece {
         let w = rng::range(rng, 0.6, 1.0);
-        let h = if tall { rng::range(rng, 1.6, 2.0) } else { rng::range(rng, 0.7, 0.8) };
-        let m = if rng::chance(rng, 0.6) { self.m.cabinet } else { self.wood(rng) };
+        let h = if tall {
+            rng::range(rng, 1.6, 2.0)
+        } else {
+            rng::range(rng, 0.7, 0.8)
+        };
+        let m = if rng::chance(rng, 0.6) {
+            self.m.cabinet
+        } else {
+            self.wood(rng)
+        };
         Piece::new(Vector3::new(w, 0.45, h)).part(-w / 2.0, -0.225, 0.0, w / 2.0, 0.225, h, m)
     }
 
@@ -129,7 +182,15 @@ impl Catalog<'_> {
             .part(-w / 2.0, -0.19, 0.0, w / 2.0, -0.15, h, m)
             .part(-w / 2.0, -0.15, 0.0, -w / 2.0 + 0.03, 0.19, h, m)
             .part(w / 2.0 - 0.03, -0.15, 0.0, w / 2.0, 0.19, h, m)
-            .part(-w / 2.0 + 0.03, -0.15, h / 2.0 - 0.02, w / 2.0 - 0.03, 0.19, h / 2.0, m)
+            .part(
+                -w / 2.0 + 0.03,
+                -0.15,
+                h / 2.0 - 0.02,
+                w / 2.0 - 0.03,
+                0.19,
+                h / 2.0,
+                m,
+            )
             .part(-w / 2.0 + 0.03, -0.15, h - 0.03, w / 2.0 - 0.03, 0.19, h, m)
     }
 
@@ -139,7 +200,15 @@ impl Catalog<'_> {
         let leaf = s + rng::range(rng, 0.15, 0.35);
         Piece::new(Vector3::new(leaf, leaf, h))
             .part(-s / 2.0, -s / 2.0, 0.0, s / 2.0, s / 2.0, 0.4, self.m.pot)
-            .part(-leaf / 2.0, -leaf / 2.0, 0.4, leaf / 2.0, leaf / 2.0, h, self.m.leaves)
+            .part(
+                -leaf / 2.0,
+                -leaf / 2.0,
+                0.4,
+                leaf / 2.0,
+                leaf / 2.0,
+                h,
+                self.m.leaves,
+            )
     }
 
     fn bench(&self, rng: &mut Stream) -> Piece {
@@ -147,23 +216,55 @@ impl Catalog<'_> {
         let m = self.wood(rng);
         Piece::new(Vector3::new(w, 0.42, 0.45))
             .part(-w / 2.0, -0.21, 0.4, w / 2.0, 0.21, 0.45, m)
-            .part(-w / 2.0 + 0.1, -0.18, 0.0, -w / 2.0 + 0.15, 0.18, 0.4, self.m.metal)
-            .part(w / 2.0 - 0.15, -0.18, 0.0, w / 2.0 - 0.1, 0.18, 0.4, self.m.metal)
+            .part(
+                -w / 2.0 + 0.1,
+                -0.18,
+                0.0,
+                -w / 2.0 + 0.15,
+                0.18,
+                0.4,
+                self.m.metal,
+            )
+            .part(
+                w / 2.0 - 0.15,
+                -0.18,
+                0.0,
+                w / 2.0 - 0.1,
+                0.18,
+                0.4,
+                self.m.metal,
+            )
     }
 
     fn table(&self, rng: &mut Stream, w: f32, d: f32) -> Piece {
         let m = self.wood(rng);
         Piece::new(Vector3::new(w, d, 0.74))
             .part(-w / 2.0, -d / 2.0, 0.71, w / 2.0, d / 2.0, 0.74, m)
-            .part(-w / 2.0 + 0.2, -0.05, 0.0, -w / 2.0 + 0.26, 0.05, 0.71, self.m.metal)
-            .part(w / 2.0 - 0.26, -0.05, 0.0, w / 2.0 - 0.2, 0.05, 0.71, self.m.metal)
+            .part(
+                -w / 2.0 + 0.2,
+                -0.05,
+                0.0,
+                -w / 2.0 + 0.26,
+                0.05,
+                0.71,
+                self.m.metal,
+            )
+            .part(
+                w / 2.0 - 0.26,
+                -0.05,
+                0.0,
+                w / 2.0 - 0.2,
+                0.05,
+                0.71,
+                self.m.metal,
+            )
     }
 
     fn sofa(&self, rng: &mut Stream, w: f32) -> Piece {
         let f = self.fabric(rng);
-        Piece::new(Vector3::new(w, 0.85, 0.8))
-            .part(-w / 2.0, -0.425, 0.0, w / 2.0, 0.425, 0.42, f)
-            .part(-w / 2.0, -0.425, 0.42, w / 2.0, -0.225, 0.8, f)
+        Piece::new(Vector3::new(w, 0.8, 0.8))
+            .part(-w / 2.0, -0.4, 0.0, w / 2.0, 0.4, 0.42, f)
+            .part(-w / 2.0, -0.4, 0.42, w / 2.0, -0.2, 0.8, f)
     }
 
     /// Plain boxes: printers, fridges, counters, reception desks, bins, water coolers.
@@ -196,10 +297,17 @@ pub(crate) struct Site<'a> {
 /// Places furniture on one level with the furniture stream `seed` (already reflecting the
 /// variant); `disaster` topples some of it.
 pub(crate) fn furnish(site: &Site, mats: &Materials, seed: u64, disaster: bool) -> Vec<Placed> {
-    let mut f = Furnisher { site, cat: Catalog { m: mats }, placed: Vec::new(), blocked: Vec::new(), shadows: Vec::new() };
+    let mut f = Furnisher {
+        site,
+        cat: Catalog { m: mats },
+        placed: Vec::new(),
+        blocked: Vec::new(),
+        shadows: Vec::new(),
+    };
     f.prepare();
     for (zi, zone) in site.level.zones.iter().enumerate() {
-        let mut rng = rng::stream(&[seed, zone.key, u64::from(site.level.storey)]);
+        // Zone keys differ between storeys except for corridors meant to look alike.
+        let mut rng = rng::stream(&[seed, zone.key]);
         match zone.kind {
             ZoneKind::Room(kind) => f.room(&mut rng, zi, kind),
             ZoneKind::Corridor => f.corridor(&mut rng, zi),
@@ -235,20 +343,31 @@ impl Furnisher<'_> {
     fn prepare(&mut self) {
         let lv = self.site.level;
         for op in &lv.openings {
-            let Some(door) = lv.zones.get(op.zone).and_then(|z| z.rects.first()) else { continue };
+            let Some(door) = lv.zones.get(op.zone).and_then(|z| z.rects.first()) else {
+                continue;
+            };
             let (a, b) = (door.min_m(), door.max_m());
             let r = R2::new(a[0], a[1], b[0], b[1]);
-            let keep = if op.along_y { R2::new(r.u0 - 0.15, r.v0 - 1.1, r.u1 + 0.15, r.v1 + 1.1) } else { R2::new(r.u0 - 1.1, r.v0 - 0.15, r.u1 + 1.1, r.v1 + 0.15) };
+            let keep = if op.along_y {
+                R2::new(r.u0 - 0.15, r.v0 - 1.1, r.u1 + 0.15, r.v1 + 1.1)
+            } else {
+                R2::new(r.u0 - 1.1, r.v0 - 0.15, r.u1 + 1.1, r.v1 + 0.15)
+            };
             self.blocked.push(keep);
         }
         for item in &self.site.decor.wall {
-            let Some(run) = self.site.runs.get(item.run) else { continue };
+            let Some(run) = self.site.runs.get(item.run) else {
+                continue;
+            };
             let (frame, _) = run_frame(run, lv);
             let depth = match item.mount {
                 Mount::Inset => 0.3,
                 Mount::Box { depth } => depth + 0.3,
             };
-            let (p, q) = (frame.at(item.rect.u0, 0.0), frame.at(item.rect.u1, 0.0) + frame.n * depth);
+            let (p, q) = (
+                frame.at(item.rect.u0, 0.0),
+                frame.at(item.rect.u1, 0.0) + frame.n * depth,
+            );
             let foot = R2::new(p.x.min(q.x), p.y.min(q.y), p.x.max(q.x), p.y.max(q.y));
             let below = match item.mount {
                 Mount::Inset => item.rect.v0 - 0.05,
@@ -260,31 +379,77 @@ impl Furnisher<'_> {
 
     /// True when a piece of height `h` with footprint `foot` may stand in zone `zi`.
     fn fits(&self, zi: usize, foot: &R2, h: f32, ignore: Option<usize>) -> bool {
-        let Some(zone) = self.site.level.zones.get(zi) else { return false };
+        let Some(zone) = self.site.level.zones.get(zi) else {
+            return false;
+        };
         let inside = zone.rects.iter().any(|r| {
             let (a, b) = (r.min_m(), r.max_m());
             R2::new(a[0] + 0.02, a[1] + 0.02, b[0] - 0.02, b[1] - 0.02).contains(foot)
         });
         inside
             && self.blocked.iter().all(|b| !b.overlaps(foot))
-            && self.shadows.iter().all(|s| h < s.below || !s.foot.overlaps(foot))
-            && self.placed.iter().enumerate().all(|(i, p)| Some(i) == ignore || !p.foot.grow(0.05).overlaps(foot))
-            && self.site.segments.iter().all(|s| !segment_hits(s, &foot.grow(CLEARANCE)))
+            && self
+                .shadows
+                .iter()
+                .all(|s| h < s.below || !s.foot.overlaps(foot))
+            && self
+                .placed
+                .iter()
+                .enumerate()
+                .all(|(i, p)| Some(i) == ignore || !p.foot.grow(0.05).overlaps(foot))
+            && self
+                .site
+                .segments
+                .iter()
+                .all(|s| !segment_hits(s, &foot.grow(CLEARANCE)))
     }
 
     fn add(&mut self, piece: Piece, at: Point3<f32>, yaw: f32) {
         let foot = footprint(piece.size, at, yaw, false);
-        self.placed.push(Placed { piece_parts: piece.parts, size: piece.size, at, yaw, fallen: false, foot });
+        self.placed.push(Placed {
+            piece_parts: piece.parts,
+            size: piece.size,
+            at,
+            yaw,
+            fallen: false,
+            foot,
+        });
     }
 
     /// A random spot against a wall of zone `zi` for `piece` (back to the wall), tried `tries`
     /// times. Returns the piece's centre and yaw when it was placed.
-    fn along_wall(&mut self, rng: &mut Stream, zi: usize, piece: Piece, tries: usize) -> Option<(Point3<f32>, f32)> {
-        let runs: Vec<&WallRun> = self.site.runs.iter().filter(|r| r.zone == zi && r.lo == 0.0 && r.len_m() >= piece.size.x + 0.2).collect();
+    fn along_wall(
+        &mut self,
+        rng: &mut Stream,
+        zi: usize,
+        piece: Piece,
+        tries: usize,
+    ) -> Option<(Point3<f32>, f32)> {
+        // In corridors only the long side walls: the ends differ between otherwise identical
+        // corridors (a window here, the bridge there), and must not change what stands where.
+        let long_x = self
+            .site
+            .level
+            .zones
+            .get(zi)
+            .filter(|z| z.kind == ZoneKind::Corridor)
+            .and_then(|z| z.rects.first())
+            .map(|r| r.w() >= r.h());
+        let runs: Vec<&WallRun> = self
+            .site
+            .runs
+            .iter()
+            .filter(|r| r.zone == zi && r.lo == 0.0 && r.len_m() >= piece.size.x + 0.2)
+            .filter(|r| long_x.is_none_or(|x| r.normal.along_x() == x))
+            .collect();
         for _ in 0..tries {
             let run = rng::pick(rng, &runs)?;
             let (frame, face) = run_frame(run, self.site.level);
-            let u = rng::range(rng, face.u0 + piece.size.x / 2.0 + 0.05, face.u1 - piece.size.x / 2.0 - 0.05);
+            let u = rng::range(
+                rng,
+                face.u0 + piece.size.x / 2.0 + 0.05,
+                face.u1 - piece.size.x / 2.0 - 0.05,
+            );
             let at = frame.at(u, 0.0) + frame.n * (piece.size.y / 2.0 + 0.03);
             let yaw = (-frame.n.x).atan2(frame.n.y);
             let foot = footprint(piece.size, at, yaw, false);
@@ -302,7 +467,9 @@ impl Furnisher<'_> {
         let chair = self.cat.chair(rng);
         // Find room for both at once: a desk as deep as desk and chair together.
         let probe = Piece::new(Vector3::new(desk.size.x, desk.size.y + 0.7, desk.size.z));
-        let Some((at, yaw)) = self.along_wall(rng, zi, probe, 8) else { return };
+        let Some((at, yaw)) = self.along_wall(rng, zi, probe, 8) else {
+            return;
+        };
         self.placed.pop();
         let (s, c) = yaw.sin_cos();
         let forward = Vector3::new(-s, c, 0.0);
@@ -314,7 +481,16 @@ impl Furnisher<'_> {
     }
 
     fn room(&mut self, rng: &mut Stream, zi: usize, kind: RoomKind) {
-        let Some(r) = self.site.level.zones.get(zi).and_then(|z| z.rects.first()).copied() else { return };
+        let Some(r) = self
+            .site
+            .level
+            .zones
+            .get(zi)
+            .and_then(|z| z.rects.first())
+            .copied()
+        else {
+            return;
+        };
         let area = r.w() as f32 * r.h() as f32 * 0.01;
         match kind {
             RoomKind::Office => {
@@ -352,7 +528,9 @@ impl Furnisher<'_> {
                 }
             }
             RoomKind::Kitchen => {
-                let counter = self.cat.block(rng::range(rng, 1.8, 2.6), 0.6, 0.9, self.cat.m.counter);
+                let counter =
+                    self.cat
+                        .block(rng::range(rng, 1.8, 2.6), 0.6, 0.9, self.cat.m.counter);
                 self.along_wall(rng, zi, counter, 8);
                 let fridge = self.cat.block(0.7, 0.7, 1.8, self.cat.m.whiteboard);
                 self.along_wall(rng, zi, fridge, 8);
@@ -365,7 +543,16 @@ impl Furnisher<'_> {
 
     /// A table with chairs round it somewhere in the room; false if none fits.
     fn meeting_table(&mut self, rng: &mut Stream, zi: usize) -> bool {
-        let Some(r) = self.site.level.zones.get(zi).and_then(|z| z.rects.first()).copied() else { return false };
+        let Some(r) = self
+            .site
+            .level
+            .zones
+            .get(zi)
+            .and_then(|z| z.rects.first())
+            .copied()
+        else {
+            return false;
+        };
         let long = (r.w().max(r.h()) as f32 * 0.1 - 2.6).min(3.2);
         for len in [long, long - 0.8, 1.4] {
             if len < 1.2 {
@@ -383,11 +570,24 @@ impl Furnisher<'_> {
     /// A free-standing table with `chairs` chairs along its long sides; false if it found no
     /// room.
     fn free_group(&mut self, rng: &mut Stream, zi: usize, table: Piece, chairs: usize) -> bool {
-        let Some(r) = self.site.level.zones.get(zi).and_then(|z| z.rects.first()).copied() else { return false };
+        let Some(r) = self
+            .site
+            .level
+            .zones
+            .get(zi)
+            .and_then(|z| z.rects.first())
+            .copied()
+        else {
+            return false;
+        };
         let (a, b) = (r.min_m(), r.max_m());
         let (w, d) = (table.size.x, table.size.y);
         for _ in 0..12 {
-            let yaw = if (b[0] - a[0]) >= (b[1] - a[1]) { 0.0 } else { FRAC_PI_2 };
+            let yaw = if (b[0] - a[0]) >= (b[1] - a[1]) {
+                0.0
+            } else {
+                FRAC_PI_2
+            };
             let x = rng::range(rng, a[0] + 1.0, b[0] - 1.0);
             let y = rng::range(rng, a[1] + 1.0, b[1] - 1.0);
             let at = Point3::new(x, y, self.site.level.floor_z);
@@ -415,10 +615,22 @@ impl Furnisher<'_> {
     }
 
     fn corridor(&mut self, rng: &mut Stream, zi: usize) {
-        let Some(r) = self.site.level.zones.get(zi).and_then(|z| z.rects.first()).copied() else { return };
+        let Some(r) = self
+            .site
+            .level
+            .zones
+            .get(zi)
+            .and_then(|z| z.rects.first())
+            .copied()
+        else {
+            return;
+        };
         let len = r.w().max(r.h()) as f32 * 0.1;
         let n = (len / rng::range(rng, 4.0, 8.0)).round() as usize;
-        for _ in 0..n {
+        let base = rng::seed(rng);
+        for k in 0..n {
+            // One stream per piece: a piece that finds no room does not shift the others.
+            let rng = &mut rng::stream(&[base, k as u64]);
             let roll = rng::range(rng, 0.0, 1.0);
             let piece = if roll < 0.3 {
                 self.cat.bench(rng)
@@ -426,7 +638,12 @@ impl Furnisher<'_> {
                 self.cat.plant(rng)
             } else if roll < 0.7 {
                 let m = self.cat.m.cabinet;
-                self.cat.block(rng::range(rng, 0.8, 1.6), 0.45, rng::range(rng, 1.0, 1.9), m)
+                self.cat.block(
+                    rng::range(rng, 0.8, 1.6),
+                    0.45,
+                    rng::range(rng, 1.0, 1.9),
+                    m,
+                )
             } else if roll < 0.8 {
                 self.cat.block(0.6, 0.5, 1.0, self.cat.m.white)
             } else if roll < 0.9 {
@@ -443,7 +660,7 @@ impl Furnisher<'_> {
         let reception = self.cat.block(2.4, 0.8, 1.1, self.cat.m.counter);
         self.along_wall(rng, zi, reception, 10);
         for _ in 0..rng::range_i(rng, 2, 4) {
-            let table = self.cat.block(0.9, 0.6, 0.4, self.cat.m.cabinet);
+            let table = self.cat.block(0.8, 0.5, 0.4, self.cat.m.cabinet);
             self.sofa_group(rng, zi, table);
         }
         for _ in 0..rng::range_i(rng, 3, 6) {
@@ -456,27 +673,50 @@ impl Furnisher<'_> {
         }
     }
 
-    /// A coffee table between two sofas, standing free in the lobby.
+    /// A coffee table between two sofas, standing free in the hall. Halls have a lattice of
+    /// walk nodes, so the group is tried at the middles of the lattice's cells.
     fn sofa_group(&mut self, rng: &mut Stream, zi: usize, table: Piece) {
-        let zone_rects = self.site.level.zones.get(zi).map(|z| z.rects.clone()).unwrap_or_default();
-        for _ in 0..12 {
-            let Some(r) = rng::pick(rng, &zone_rects) else { return };
+        let zone_rects = self
+            .site
+            .level
+            .zones
+            .get(zi)
+            .map(|z| z.rects.clone())
+            .unwrap_or_default();
+        let mut spots = Vec::new();
+        for r in &zone_rects {
             let (a, b) = (r.min_m(), r.max_m());
-            let at = Point3::new(rng::range(rng, a[0] + 1.5, b[0] - 1.5), rng::range(rng, a[1] + 1.5, b[1] - 1.5), self.site.level.floor_z);
-            let yaw = if rng::chance(rng, 0.5) { 0.0 } else { FRAC_PI_2 };
-            let group = footprint(Vector3::new(2.0, 2.9, 1.0), at, yaw, false);
-            if !self.fits(zi, &group, 1.0, None) {
-                continue;
+            let (xs, ys) = (lobby_lattice(a[0], b[0]), lobby_lattice(a[1], b[1]));
+            for y in ys.windows(2) {
+                for x in xs.windows(2) {
+                    spots.push(((x[0] + x[1]) / 2.0, (y[0] + y[1]) / 2.0));
+                }
             }
-            let (s, c) = yaw.sin_cos();
-            let across = Vector3::new(-s, c, 0.0);
-            self.add(table, at, yaw);
-            for side in [-1.0f32, 1.0] {
-                let sofa = self.cat.sofa(rng, 1.8);
-                let yaw_s = yaw + if side > 0.0 { PI } else { 0.0 };
-                self.add(sofa, at + across * (side * 1.0), yaw_s);
+        }
+        for _ in 0..spots.len().min(12) {
+            let Some(&(x, y)) = rng::pick(rng, &spots) else {
+                return;
+            };
+            let at = Point3::new(
+                x + rng::range(rng, -0.1, 0.1),
+                y + rng::range(rng, -0.1, 0.1),
+                self.site.level.floor_z,
+            );
+            for yaw in [0.0, FRAC_PI_2] {
+                let group = footprint(Vector3::new(1.8, 2.55, 1.0), at, yaw, false);
+                if !self.fits(zi, &group, 1.0, None) {
+                    continue;
+                }
+                let (s, c) = yaw.sin_cos();
+                let across = Vector3::new(-s, c, 0.0);
+                self.add(table, at, yaw);
+                for side in [-1.0f32, 1.0] {
+                    let sofa = self.cat.sofa(rng, 1.6);
+                    let yaw_s = yaw + if side > 0.0 { PI } else { 0.0 };
+                    self.add(sofa, at + across * (side * 0.85), yaw_s);
+                }
+                return;
             }
-            return;
         }
     }
 
@@ -486,7 +726,9 @@ impl Furnisher<'_> {
             if !rng::chance(rng, 0.35) {
                 continue;
             }
-            let Some(p) = self.placed.get(i) else { continue };
+            let Some(p) = self.placed.get(i) else {
+                continue;
+            };
             let yaw = p.yaw + rng::range(rng, -0.5, 0.5);
             let foot = footprint(p.size, p.at, yaw, true);
             let zone = self.site.level.zones.iter().position(|z| {
@@ -502,14 +744,23 @@ impl Furnisher<'_> {
                     R2::new(a[0] + 0.02, a[1] + 0.02, b[0] - 0.02, b[1] - 0.02).contains(&foot)
                 })
             });
-            let clear_nodes = self.site.nodes.iter().all(|n| !foot.grow(0.35).contains(&R2::new(n.x, n.y, n.x, n.y)));
-            let clear = self.placed.iter().enumerate().all(|(j, q)| j == i || !q.foot.overlaps(&foot));
-            if inside && clear_nodes && clear {
-                if let Some(p) = self.placed.get_mut(i) {
-                    p.fallen = true;
-                    p.yaw = yaw;
-                    p.foot = foot;
-                }
+            let clear_nodes = self
+                .site
+                .nodes
+                .iter()
+                .all(|n| !foot.grow(0.35).contains(&R2::new(n.x, n.y, n.x, n.y)));
+            let clear = self
+                .placed
+                .iter()
+                .enumerate()
+                .all(|(j, q)| j == i || !q.foot.overlaps(&foot));
+            if !(inside && clear_nodes && clear) {
+                continue;
+            }
+            if let Some(p) = self.placed.get_mut(i) {
+                p.fallen = true;
+                p.yaw = yaw;
+                p.foot = foot;
             }
         }
     }
@@ -540,12 +791,18 @@ pub(crate) fn segment_hits(s: &[Point2<f32>; 2], r: &R2) -> bool {
 
 /// The pose of a placed piece's frame.
 fn pose(p: &Placed) -> Isometry3<f32> {
-    let base = Isometry3::from_parts(Translation3::new(p.at.x, p.at.y, p.at.z), UnitQuaternion::from_axis_angle(&Vector3::z_axis(), p.yaw));
+    let base = Isometry3::from_parts(
+        Translation3::new(p.at.x, p.at.y, p.at.z),
+        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), p.yaw),
+    );
     if p.fallen {
         // Rotate −90° about the front bottom edge: the piece lies on its front.
         let pivot = Vector3::new(0.0, p.size.y / 2.0, 0.0);
-        let fall = Isometry3::from_parts(Translation3::from(pivot), UnitQuaternion::from_axis_angle(&Vector3::x_axis(), -FRAC_PI_2))
-            * Isometry3::from_parts(Translation3::from(-pivot), UnitQuaternion::identity());
+        let fall =
+            Isometry3::from_parts(
+                Translation3::from(pivot),
+                UnitQuaternion::from_axis_angle(&Vector3::x_axis(), -FRAC_PI_2),
+            ) * Isometry3::from_parts(Translation3::from(-pivot), UnitQuaternion::identity());
         base * fall
     } else {
         base
@@ -574,7 +831,12 @@ pub(crate) fn debris(mesh: &mut Mesh, site: &Site, mats: &Materials, seed: u64) 
     let rects: Vec<R2> = lv
         .zones
         .iter()
-        .filter(|z| matches!(z.kind, ZoneKind::Corridor | ZoneKind::Room(_) | ZoneKind::Lobby | ZoneKind::Bridge))
+        .filter(|z| {
+            matches!(
+                z.kind,
+                ZoneKind::Corridor | ZoneKind::Room(_) | ZoneKind::Lobby | ZoneKind::Bridge
+            )
+        })
         .flat_map(|z| z.rects.iter())
         .map(|r| {
             let (a, b) = (r.min_m(), r.max_m());
@@ -584,7 +846,11 @@ pub(crate) fn debris(mesh: &mut Mesh, site: &Site, mats: &Materials, seed: u64) 
         .collect();
     let total: f32 = rects.iter().map(|r| r.w() * r.h()).sum();
     let count = (total / 8.0) as usize;
-    let clear = |x: f32, y: f32, m: f32| site.nodes.iter().all(|n| (n.x - x).hypot(n.y - y) > 0.4 + m);
+    let clear = |x: f32, y: f32, m: f32| {
+        site.nodes
+            .iter()
+            .all(|n| (n.x - x).hypot(n.y - y) > 0.4 + m)
+    };
     for _ in 0..count {
         // A rectangle chosen by area, then a point in it.
         let mut pick = rng::range(&mut rng, 0.0, total);
@@ -594,29 +860,70 @@ pub(crate) fn debris(mesh: &mut Mesh, site: &Site, mats: &Materials, seed: u64) 
         }) else {
             continue;
         };
-        let (x, y) = (rng::range(&mut rng, r.u0, r.u1), rng::range(&mut rng, r.v0, r.v1));
-        let size = Vector3::new(rng::range(&mut rng, 0.08, 0.5), rng::range(&mut rng, 0.08, 0.4), rng::range(&mut rng, 0.03, 0.25));
+        let (x, y) = (
+            rng::range(&mut rng, r.u0, r.u1),
+            rng::range(&mut rng, r.v0, r.v1),
+        );
+        let size = Vector3::new(
+            rng::range(&mut rng, 0.08, 0.5),
+            rng::range(&mut rng, 0.08, 0.4),
+            rng::range(&mut rng, 0.03, 0.25),
+        );
         if !clear(x, y, size.x.max(size.y) / 2.0) {
             continue;
         }
-        let material = if rng::chance(&mut rng, 0.5) { mats.rubble[0] } else { mats.rubble[1] };
+        let material = if rng::chance(&mut rng, 0.5) {
+            mats.rubble[0]
+        } else {
+            mats.rubble[1]
+        };
         tumbled(mesh, &mut rng, x, y, lv.floor_z, size, 0.5, material);
     }
-    for item in site.decor.ceiling.iter().filter(|c| c.kind == super::decor::CeilingKind::Missing) {
+    for item in site
+        .decor
+        .ceiling
+        .iter()
+        .filter(|c| c.kind == super::decor::CeilingKind::Missing)
+    {
         let [cx, cy] = item.rect.center();
-        let (x, y) = (cx + rng::range(&mut rng, -0.5, 0.5), cy + rng::range(&mut rng, -0.5, 0.5));
+        let (x, y) = (
+            cx + rng::range(&mut rng, -0.5, 0.5),
+            cy + rng::range(&mut rng, -0.5, 0.5),
+        );
         if !clear(x, y, 0.45) || lv.zones.get(item.zone).is_none() {
             continue;
         }
-        let tile = lv.zones.get(item.zone).and_then(|z| mats.storey(z.place.building, lv.storey)).map_or(mats.rubble[1], |p| p.ceiling);
-        tumbled(mesh, &mut rng, x, y, lv.floor_z, Vector3::new(0.6, 0.6, 0.015), 0.15, tile);
+        let tile = lv
+            .zones
+            .get(item.zone)
+            .and_then(|z| mats.storey(z.place.building, lv.storey))
+            .map_or(mats.rubble[1], |p| p.ceiling);
+        tumbled(
+            mesh,
+            &mut rng,
+            x,
+            y,
+            lv.floor_z,
+            Vector3::new(0.6, 0.6, 0.015),
+            0.15,
+            tile,
+        );
     }
 }
 
 /// A box of `size` at (x, y) on the floor at `z`, turned at random and tilted up to `tilt`
 /// radians, resting with its lowest corner just at the floor.
 #[allow(clippy::too_many_arguments)]
-fn tumbled(mesh: &mut Mesh, rng: &mut Stream, x: f32, y: f32, z: f32, size: Vector3<f32>, tilt: f32, material: MaterialId) {
+fn tumbled(
+    mesh: &mut Mesh,
+    rng: &mut Stream,
+    x: f32,
+    y: f32,
+    z: f32,
+    size: Vector3<f32>,
+    tilt: f32,
+    material: MaterialId,
+) {
     let yaw = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), rng::range(rng, -PI, PI));
     let a = rng::range(rng, -PI, PI);
     let axis = nalgebra::Unit::new_normalize(Vector3::new(a.cos(), a.sin(), 0.0));
@@ -624,7 +931,13 @@ fn tumbled(mesh: &mut Mesh, rng: &mut Stream, x: f32, y: f32, z: f32, size: Vect
     let half = size / 2.0;
     let low = [-1.0f32, 1.0]
         .iter()
-        .flat_map(|&sx| [-1.0f32, 1.0].into_iter().flat_map(move |sy| [-1.0f32, 1.0].into_iter().map(move |sz| Vector3::new(sx, sy, sz))))
+        .flat_map(|&sx| {
+            [-1.0f32, 1.0].into_iter().flat_map(move |sy| {
+                [-1.0f32, 1.0]
+                    .into_iter()
+                    .map(move |sz| Vector3::new(sx, sy, sz))
+            })
+        })
         .map(|s| (rot * half.component_mul(&s)).z)
         .fold(f32::MAX, f32::min);
     let centre_z = z - low - 0.01;

@@ -37,6 +37,11 @@ impl Dir {
         }
     }
 
+    /// True for ±y: the wall runs along x.
+    pub(crate) fn along_x(self) -> bool {
+        matches!(self, Dir::PY | Dir::NY)
+    }
+
     /// Index 0–3, for hashing.
     pub(crate) fn index(self) -> u64 {
         match self {
@@ -45,11 +50,6 @@ impl Dir {
             Dir::PY => 2,
             Dir::NY => 3,
         }
-    }
-
-    /// True for ±y: the wall runs along x.
-    pub(crate) fn along_x(self) -> bool {
-        matches!(self, Dir::PY | Dir::NY)
     }
 }
 
@@ -82,7 +82,12 @@ impl WallRun {
 
     /// A stable identity (independent of the storey), for seeding decoration.
     pub(crate) fn key(&self) -> [u64; 4] {
-        [self.normal.index(), self.line as u64, self.a as u64, self.b as u64]
+        [
+            self.normal.index(),
+            self.line as u64,
+            self.a as u64,
+            self.b as u64,
+        ]
     }
 }
 
@@ -98,7 +103,10 @@ pub(crate) struct Grid {
 impl Grid {
     /// Paints `level`: outside everywhere, then its solids, then its zones.
     pub(crate) fn new(level: &Level) -> Self {
-        let all = level.solids.iter().chain(level.zones.iter().flat_map(|z| z.rects.iter()));
+        let all = level
+            .solids
+            .iter()
+            .chain(level.zones.iter().flat_map(|z| z.rects.iter()));
         let (mut x0, mut y0, mut x1, mut y1) = (i32::MAX, i32::MAX, i32::MIN, i32::MIN);
         for r in all {
             x0 = x0.min(r.x0);
@@ -112,7 +120,13 @@ impl Grid {
         let margin = 6;
         let (x0, y0) = (x0 - margin, y0 - margin);
         let (w, h) = (x1 + margin - x0, y1 + margin - y0);
-        let mut grid = Self { x0, y0, w, h, cells: vec![OUTSIDE; (w * h).max(0) as usize] };
+        let mut grid = Self {
+            x0,
+            y0,
+            w,
+            h,
+            cells: vec![OUTSIDE; (w * h).max(0) as usize],
+        };
         for r in &level.solids {
             grid.paint(r, SOLID);
         }
@@ -140,43 +154,76 @@ impl Grid {
         if x < self.x0 || y < self.y0 || x >= self.x0 + self.w || y >= self.y0 + self.h {
             return OUTSIDE;
         }
-        self.cells.get(((y - self.y0) * self.w + (x - self.x0)) as usize).copied().unwrap_or(OUTSIDE)
+        self.cells
+            .get(((y - self.y0) * self.w + (x - self.x0)) as usize)
+            .copied()
+            .unwrap_or(OUTSIDE)
     }
 
-    /// The zone at a point in metres, if it is free space.
-    pub(crate) fn zone_at(&self, x: f32, y: f32) -> Option<usize> {
-        let c = self.get((x / CELL).floor() as i32, (y / CELL).floor() as i32);
-        (c < SOLID).then_some(c as usize)
-    }
-
-    /// Every wall face of the storey, merged into runs.
+    /// Every wall face of the storey, merged into runs. Faces can only lie on the edges of
+    /// zone rectangles, so only those are visited (not the whole grid).
     pub(crate) fn wall_runs(&self, level: &Level) -> Vec<WallRun> {
-        let mut runs = Vec::new();
-        // Walls along x: boundaries between rows y−1 and y, at line y.
-        for line in self.y0..=self.y0 + self.h {
-            for (normal, dy_free, dy_other) in [(Dir::PY, 0, -1), (Dir::NY, -1, 0)] {
-                let mut current: Option<(Key, i32)> = None;
-                for x in self.x0..=self.x0 + self.w {
-                    let key = self.face(level, (x, line + dy_free), (x, line + dy_other), (0, dy_other - dy_free));
-                    current = flush(&mut runs, current, key, x, normal, line);
+        // (normal, line, position along the line, key) of every boundary face.
+        let mut faces: Vec<(Dir, i32, i32, Key)> = Vec::new();
+        for z in &level.zones {
+            for r in &z.rects {
+                for x in r.x0..r.x1 {
+                    // Bottom edge: free cell (x, y0), other (x, y0 − 1), face looks +y.
+                    if let Some(k) = self.face(level, (x, r.y0), (x, r.y0 - 1), (0, -1)) {
+                        faces.push((Dir::PY, r.y0, x, k));
+                    }
+                    if let Some(k) = self.face(level, (x, r.y1 - 1), (x, r.y1), (0, 1)) {
+                        faces.push((Dir::NY, r.y1, x, k));
+                    }
+                }
+                for y in r.y0..r.y1 {
+                    if let Some(k) = self.face(level, (r.x0, y), (r.x0 - 1, y), (-1, 0)) {
+                        faces.push((Dir::PX, r.x0, y, k));
+                    }
+                    if let Some(k) = self.face(level, (r.x1 - 1, y), (r.x1, y), (1, 0)) {
+                        faces.push((Dir::NX, r.x1, y, k));
+                    }
                 }
             }
         }
-        // Walls along y: boundaries between columns x−1 and x, at line x.
-        for line in self.x0..=self.x0 + self.w {
-            for (normal, dx_free, dx_other) in [(Dir::PX, 0, -1), (Dir::NX, -1, 0)] {
-                let mut current: Option<(Key, i32)> = None;
-                for y in self.y0..=self.y0 + self.h {
-                    let key = self.face(level, (line + dx_free, y), (line + dx_other, y), (dx_other - dx_free, 0));
-                    current = flush(&mut runs, current, key, y, normal, line);
+        faces.sort_by_key(|f| (f.0.index(), f.1, f.2));
+        let mut runs: Vec<WallRun> = Vec::new();
+        for (normal, line, at, k) in faces {
+            if let Some(last) = runs.last_mut() {
+                let same = last.normal == normal
+                    && last.line == line
+                    && last.b == at
+                    && last.zone == k.zone
+                    && last.lo.to_bits() == k.lo
+                    && last.hi.to_bits() == k.hi
+                    && last.exterior == k.exterior;
+                if same {
+                    last.b = at + 1;
+                    continue;
                 }
             }
+            runs.push(WallRun {
+                zone: k.zone,
+                normal,
+                line,
+                a: at,
+                b: at + 1,
+                lo: f32::from_bits(k.lo),
+                hi: f32::from_bits(k.hi),
+                exterior: k.exterior,
+            });
         }
         runs
     }
 
     /// The face looking into cell `free` from cell `other` (one step `step` away), if any.
-    fn face(&self, level: &Level, free: (i32, i32), other: (i32, i32), step: (i32, i32)) -> Option<Key> {
+    fn face(
+        &self,
+        level: &Level,
+        free: (i32, i32),
+        other: (i32, i32),
+        step: (i32, i32),
+    ) -> Option<Key> {
         let a = self.get(free.0, free.1);
         if a >= SOLID {
             return None;
@@ -194,7 +241,12 @@ impl Grid {
         // Outdoors if the wall ends in `OUTSIDE` within 0.5 m.
         let exterior = b >= SOLID
             && (0..5).any(|k| self.get(other.0 + step.0 * k, other.1 + step.1 * k) == OUTSIDE);
-        Some(Key { zone: a as usize, lo: lo.to_bits(), hi: za.top.to_bits(), exterior })
+        Some(Key {
+            zone: a as usize,
+            lo: lo.to_bits(),
+            hi: za.top.to_bits(),
+            exterior,
+        })
     }
 }
 
@@ -205,28 +257,6 @@ struct Key {
     lo: u32,
     hi: u32,
     exterior: bool,
-}
-
-/// Continues, ends or starts a run at position `at` along the line.
-fn flush(runs: &mut Vec<WallRun>, current: Option<(Key, i32)>, key: Option<Key>, at: i32, normal: Dir, line: i32) -> Option<(Key, i32)> {
-    match (current, key) {
-        (Some((k, start)), Some(n)) if k == n => Some((k, start)),
-        (current, key) => {
-            if let Some((k, start)) = current {
-                runs.push(WallRun {
-                    zone: k.zone,
-                    normal,
-                    line,
-                    a: start,
-                    b: at,
-                    lo: f32::from_bits(k.lo),
-                    hi: f32::from_bits(k.hi),
-                    exterior: k.exterior,
-                });
-            }
-            key.map(|k| (k, at))
-        }
-    }
 }
 
 #[cfg(test)]
@@ -243,13 +273,22 @@ mod tests {
         let runs = grid.wall_runs(level);
         // Building 0's corridor on storey 1 is zone 0: walls at y = 7.8 m (facing +y) and
         // y = 10.2 m (facing −y), broken by doors.
-        let south: Vec<&WallRun> = runs.iter().filter(|r| r.zone == 0 && r.normal == Dir::PY).collect();
-        let north: Vec<&WallRun> = runs.iter().filter(|r| r.zone == 0 && r.normal == Dir::NY).collect();
+        let south: Vec<&WallRun> = runs
+            .iter()
+            .filter(|r| r.zone == 0 && r.normal == Dir::PY)
+            .collect();
+        let north: Vec<&WallRun> = runs
+            .iter()
+            .filter(|r| r.zone == 0 && r.normal == Dir::NY)
+            .collect();
         assert!(south.iter().any(|r| r.line == 78 && r.lo == 0.0));
         assert!(north.iter().any(|r| r.line == 102 && r.lo == 0.0));
         // Lintels over the doors.
         assert!(south.iter().any(|r| r.lo > 0.0));
         // The west end wall is an outer wall.
-        assert!(runs.iter().any(|r| r.zone == 0 && r.normal == Dir::PX && r.line == 3 && r.exterior));
+        assert!(
+            runs.iter()
+                .any(|r| r.zone == 0 && r.normal == Dir::PX && r.line == 3 && r.exterior)
+        );
     }
 }

@@ -134,7 +134,13 @@ fn vary(rng: &mut Stream, list: &[[f32; 3]], amount: f32) -> [f32; 3] {
 }
 
 fn add(world: &mut World, name: &str, color: [f32; 3], pattern: Pattern, seed: u64) -> MaterialId {
-    world.add_material(Material { name: name.to_string(), color, pattern, seed, emissive: 0.0 })
+    world.add_material(Material {
+        name: name.to_string(),
+        color,
+        pattern,
+        seed,
+        emissive: 0.0,
+    })
 }
 
 impl Materials {
@@ -144,24 +150,56 @@ impl Materials {
         for building in 0..2u8 {
             for storey in 0..STOREYS {
                 // Storey 2 of building 0 repeats storey 1's corridor.
-                let twin = if building == 0 && storey == 2 { 1 } else { storey };
-                let mut c = rng::stream(&[seed, rng::text("palette-corridor"), u64::from(building), u64::from(twin)]);
+                let twin = if building == 0 && storey == 2 {
+                    1
+                } else {
+                    storey
+                };
+                let mut c = rng::stream(&[
+                    seed,
+                    rng::text("palette-corridor"),
+                    u64::from(building),
+                    u64::from(twin),
+                ]);
                 let corridor_wall = {
                     let col = vary(&mut c, &PAINTS, 0.04);
-                    add(world, "corridor paint", col, Pattern::Plain, rng::seed(&mut c))
+                    add(
+                        world,
+                        "corridor paint",
+                        col,
+                        Pattern::Plain,
+                        rng::seed(&mut c),
+                    )
                 };
                 let corridor_floor = {
                     let base = [rng::range(&mut c, 0.45, 0.75); 3];
                     let col = jitter(&mut c, base, 0.05);
                     let size = if rng::chance(&mut c, 0.5) { 0.3 } else { 0.6 };
-                    add(world, "corridor tiles", col, Pattern::Tiles { size }, rng::seed(&mut c))
+                    add(
+                        world,
+                        "corridor tiles",
+                        col,
+                        Pattern::Tiles { size },
+                        rng::seed(&mut c),
+                    )
                 };
                 let ceiling = {
                     let v = rng::range(&mut c, 0.82, 0.95);
                     let col = jitter(&mut c, [v, v, v * 0.98], 0.02);
-                    add(world, "ceiling tiles", col, Pattern::Tiles { size: 0.6 }, rng::seed(&mut c))
+                    add(
+                        world,
+                        "ceiling tiles",
+                        col,
+                        Pattern::Tiles { size: 0.6 },
+                        rng::seed(&mut c),
+                    )
                 };
-                let mut r = rng::stream(&[seed, rng::text("palette-rooms"), u64::from(building), u64::from(storey)]);
+                let mut r = rng::stream(&[
+                    seed,
+                    rng::text("palette-rooms"),
+                    u64::from(building),
+                    u64::from(storey),
+                ]);
                 let room_walls = (0..3)
                     .map(|_| {
                         let col = vary(&mut r, &PAINTS, 0.03);
@@ -181,7 +219,14 @@ impl Materials {
                         add(world, "carpet", col, Pattern::Carpet, rng::seed(&mut r))
                     })
                     .collect();
-                storeys.push(StoreyPalette { corridor_wall, corridor_floor, room_walls, accents, carpets, ceiling });
+                storeys.push(StoreyPalette {
+                    corridor_wall,
+                    corridor_floor,
+                    room_walls,
+                    accents,
+                    carpets,
+                    ceiling,
+                });
             }
         }
         let mut g = rng::stream(&[seed, rng::text("palette-shared")]);
@@ -191,8 +236,20 @@ impl Materials {
                 let floor = jitter(&mut g, [0.72, 0.68, 0.60], 0.08);
                 [
                     add(world, "lobby paint", wall, Pattern::Plain, 0),
-                    add(world, "lobby stone", floor, Pattern::Tiles { size: 0.6 }, rng::seed(&mut g)),
-                    add(world, "lobby ceiling", [0.93, 0.93, 0.92], Pattern::Tiles { size: 1.2 }, rng::seed(&mut g)),
+                    add(
+                        world,
+                        "lobby stone",
+                        floor,
+                        Pattern::Tiles { size: 0.6 },
+                        rng::seed(&mut g),
+                    ),
+                    add(
+                        world,
+                        "lobby ceiling",
+                        [0.93, 0.93, 0.92],
+                        Pattern::Tiles { size: 1.2 },
+                        rng::seed(&mut g),
+                    ),
                 ]
             })
             .collect();
@@ -202,12 +259,36 @@ impl Materials {
                 add(world, "stairwell paint", col, Pattern::Plain, 0)
             })
             .collect();
-        let concrete = add(world, "concrete", [0.62, 0.62, 0.60], Pattern::Concrete, rng::seed(&mut g));
-        let vinyl = add(world, "vinyl", [0.70, 0.72, 0.70], Pattern::Tiles { size: 0.3 }, rng::seed(&mut g));
+        let concrete = add(
+            world,
+            "concrete",
+            [0.62, 0.62, 0.60],
+            Pattern::Concrete,
+            rng::seed(&mut g),
+        );
+        let vinyl = add(
+            world,
+            "vinyl",
+            [0.70, 0.72, 0.70],
+            Pattern::Tiles { size: 0.3 },
+            rng::seed(&mut g),
+        );
         let bridge = [
             add(world, "bridge paint", [0.88, 0.88, 0.90], Pattern::Plain, 0),
-            add(world, "bridge floor", [0.50, 0.42, 0.35], Pattern::Wood, rng::seed(&mut g)),
-            add(world, "bridge ceiling", [0.90, 0.90, 0.90], Pattern::Plain, 0),
+            add(
+                world,
+                "bridge floor",
+                [0.50, 0.42, 0.35],
+                Pattern::Wood,
+                rng::seed(&mut g),
+            ),
+            add(
+                world,
+                "bridge ceiling",
+                [0.90, 0.90, 0.90],
+                Pattern::Plain,
+                0,
+            ),
         ];
         let frame = add(world, "door frame", [0.90, 0.90, 0.88], Pattern::Plain, 0);
         let door = (0..2)
@@ -218,18 +299,54 @@ impl Materials {
             .collect();
         let window = (0..2)
             .map(|_| {
-                let id = add(world, "window", [0.75, 0.85, 0.95], Pattern::Window, rng::seed(&mut g));
+                let id = add(
+                    world,
+                    "window",
+                    [0.75, 0.85, 0.95],
+                    Pattern::Window,
+                    rng::seed(&mut g),
+                );
                 if let Some(m) = world.materials.get_mut(usize::from(id)) {
                     m.emissive = 0.8;
                 }
                 id
             })
             .collect();
-        let vent = add(world, "vent", [0.85, 0.85, 0.85], Pattern::Vent, rng::seed(&mut g));
-        let metal = add(world, "metal", [0.70, 0.70, 0.72], Pattern::Metal, rng::seed(&mut g));
-        let white = add(world, "white plastic", [0.95, 0.95, 0.95], Pattern::Plain, 0);
-        let red = add(world, "extinguisher red", [0.80, 0.08, 0.06], Pattern::Plain, 0);
-        let plenum = add(world, "plenum", [0.10, 0.10, 0.11], Pattern::Concrete, rng::seed(&mut g));
+        let vent = add(
+            world,
+            "vent",
+            [0.85, 0.85, 0.85],
+            Pattern::Vent,
+            rng::seed(&mut g),
+        );
+        let metal = add(
+            world,
+            "metal",
+            [0.70, 0.70, 0.72],
+            Pattern::Metal,
+            rng::seed(&mut g),
+        );
+        let white = add(
+            world,
+            "white plastic",
+            [0.95, 0.95, 0.95],
+            Pattern::Plain,
+            0,
+        );
+        let red = add(
+            world,
+            "extinguisher red",
+            [0.80, 0.08, 0.06],
+            Pattern::Plain,
+            0,
+        );
+        let plenum = add(
+            world,
+            "plenum",
+            [0.10, 0.10, 0.11],
+            Pattern::Concrete,
+            rng::seed(&mut g),
+        );
         let woods = (0..3)
             .map(|_| {
                 let col = jitter(&mut g, [0.70, 0.55, 0.38], 0.12);
@@ -242,14 +359,38 @@ impl Materials {
                 add(world, "fabric", col, Pattern::Fabric, rng::seed(&mut g))
             })
             .collect();
-        let cabinet = add(world, "cabinet", [0.60, 0.62, 0.64], Pattern::Metal, rng::seed(&mut g));
-        let leaves = add(world, "leaves", [0.20, 0.45, 0.18], Pattern::Fabric, rng::seed(&mut g));
+        let cabinet = add(
+            world,
+            "cabinet",
+            [0.60, 0.62, 0.64],
+            Pattern::Metal,
+            rng::seed(&mut g),
+        );
+        let leaves = add(
+            world,
+            "leaves",
+            [0.20, 0.45, 0.18],
+            Pattern::Fabric,
+            rng::seed(&mut g),
+        );
         let pot = add(world, "pot", [0.62, 0.35, 0.22], Pattern::Plain, 0);
         let whiteboard = add(world, "whiteboard", [0.96, 0.96, 0.97], Pattern::Plain, 0);
         let counter = add(world, "counter", [0.85, 0.83, 0.80], Pattern::Plain, 0);
         let rubble = [
-            add(world, "rubble", [0.55, 0.53, 0.50], Pattern::Concrete, rng::seed(&mut g)),
-            add(world, "plaster", [0.80, 0.78, 0.74], Pattern::Concrete, rng::seed(&mut g)),
+            add(
+                world,
+                "rubble",
+                [0.55, 0.53, 0.50],
+                Pattern::Concrete,
+                rng::seed(&mut g),
+            ),
+            add(
+                world,
+                "plaster",
+                [0.80, 0.78, 0.74],
+                Pattern::Concrete,
+                rng::seed(&mut g),
+            ),
         ];
         Self {
             storeys,
@@ -279,7 +420,8 @@ impl Materials {
 
     /// The palette of `building`'s `storey` (building 1's ground floor if out of range).
     pub(crate) fn storey(&self, building: u8, storey: u8) -> Option<&StoreyPalette> {
-        self.storeys.get(usize::from(building) * usize::from(STOREYS) + usize::from(storey))
+        self.storeys
+            .get(usize::from(building) * usize::from(STOREYS) + usize::from(storey))
     }
 
     /// The material of a zone's walls.
@@ -288,7 +430,9 @@ impl Materials {
         let pal = self.storey(zone.place.building, level.storey);
         match zone.kind {
             ZoneKind::Corridor => pal.map_or(self.frame, |p| p.corridor_wall),
-            ZoneKind::Room(_) => pal.map_or(self.frame, |p| pick_by(&p.room_walls, zone.key, self.frame)),
+            ZoneKind::Room(_) => {
+                pal.map_or(self.frame, |p| pick_by(&p.room_walls, zone.key, self.frame))
+            }
             ZoneKind::Lobby => self.lobby.get(b).map_or(self.frame, |m| m[0]),
             ZoneKind::Stair => self.stair_wall.get(b).copied().unwrap_or(self.frame),
             ZoneKind::Door => self.frame,
@@ -302,9 +446,10 @@ impl Materials {
         let pal = self.storey(zone.place.building, level.storey);
         match zone.kind {
             ZoneKind::Corridor => pal.map_or(self.concrete, |p| p.corridor_floor),
-            ZoneKind::Room(RoomKind::Office | RoomKind::Meeting) => {
-                pal.map_or(self.concrete, |p| pick_by(&p.carpets, zone.key >> 8, self.concrete))
-            }
+            ZoneKind::Room(RoomKind::Office | RoomKind::Meeting) => pal
+                .map_or(self.concrete, |p| {
+                    pick_by(&p.carpets, zone.key >> 8, self.concrete)
+                }),
             ZoneKind::Room(_) => self.vinyl,
             ZoneKind::Lobby => self.lobby.get(b).map_or(self.concrete, |m| m[1]),
             ZoneKind::Stair => self.concrete,

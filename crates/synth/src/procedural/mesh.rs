@@ -82,7 +82,10 @@ pub(crate) fn subtract(base: R2, holes: &[R2]) -> Vec<R2> {
             next.push(R2::new(mu0, p.v0, mu1, hole.v0.max(p.v0)));
             next.push(R2::new(mu0, hole.v1.min(p.v1), mu1, p.v1));
         }
-        pieces = next.into_iter().filter(|r| r.w() > 1e-4 && r.h() > 1e-4).collect();
+        pieces = next
+            .into_iter()
+            .filter(|r| r.w() > 1e-4 && r.h() > 1e-4)
+            .collect();
     }
     pieces
 }
@@ -105,17 +108,16 @@ impl Frame {
     pub(crate) fn vertical(n: Vector3<f32>, offset: f32, floor_z: f32) -> Self {
         let r = Vector3::z().cross(&n);
         let o = n * offset;
-        Self { origin: Point3::new(o.x, o.y, floor_z), n, r }
+        Self {
+            origin: Point3::new(o.x, o.y, floor_z),
+            n,
+            r,
+        }
     }
 
     /// The point at (u, v).
     pub(crate) fn at(&self, u: f32, v: f32) -> Point3<f32> {
         self.origin + self.r * u + Vector3::z() * v
-    }
-
-    /// The u coordinate of a point.
-    pub(crate) fn u_of(&self, p: &Point3<f32>) -> f32 {
-        (p - self.origin).dot(&self.r)
     }
 }
 
@@ -132,13 +134,22 @@ pub(crate) struct Mesh<'w> {
 impl<'w> Mesh<'w> {
     /// Starts adding to `world`.
     pub(crate) fn new(world: &'w mut World) -> Self {
-        Self { world, planes: HashMap::new() }
+        Self {
+            world,
+            planes: HashMap::new(),
+        }
     }
 
     /// The id of the plane `n · p = offset` of `group`, registering it the first time.
     pub(crate) fn plane(&mut self, n: Vector3<f32>, offset: f32, group: u8) -> PlaneId {
         let q = |x: f32| (x * 1000.0).round() as i32;
-        let key = (q(n.x), q(n.y), q(n.z), (offset * 1000.0).round() as i64, group);
+        let key = (
+            q(n.x),
+            q(n.y),
+            q(n.z),
+            (offset * 1000.0).round() as i64,
+            group,
+        );
         if let Some(&id) = self.planes.get(&key) {
             return id;
         }
@@ -148,15 +159,32 @@ impl<'w> Mesh<'w> {
     }
 
     /// One triangle (dropped when degenerate).
-    pub(crate) fn tri(&mut self, v: [Point3<f32>; 3], uv: [[f32; 2]; 3], material: MaterialId, plane: PlaneId) {
-        let t = Triangle { v, uv, material, plane };
+    pub(crate) fn tri(
+        &mut self,
+        v: [Point3<f32>; 3],
+        uv: [[f32; 2]; 3],
+        material: MaterialId,
+        plane: PlaneId,
+    ) {
+        let t = Triangle {
+            v,
+            uv,
+            material,
+            plane,
+        };
         if t.area() > 1e-7 {
             self.world.triangles.push(t);
         }
     }
 
     /// A planar convex quad, counter-clockwise from the front.
-    pub(crate) fn quad(&mut self, v: [Point3<f32>; 4], uv: [[f32; 2]; 4], material: MaterialId, plane: PlaneId) {
+    pub(crate) fn quad(
+        &mut self,
+        v: [Point3<f32>; 4],
+        uv: [[f32; 2]; 4],
+        material: MaterialId,
+        plane: PlaneId,
+    ) {
         self.tri([v[0], v[1], v[2]], [uv[0], uv[1], uv[2]], material, plane);
         self.tri([v[0], v[2], v[3]], [uv[0], uv[2], uv[3]], material, plane);
     }
@@ -174,12 +202,24 @@ impl<'w> Mesh<'w> {
         if n.dot(&facing) >= 0.0 {
             self.quad(v, uv, material, plane);
         } else {
-            self.quad([v[0], v[3], v[2], v[1]], [uv[0], uv[3], uv[2], uv[1]], material, plane);
+            self.quad(
+                [v[0], v[3], v[2], v[1]],
+                [uv[0], uv[3], uv[2], uv[1]],
+                material,
+                plane,
+            );
         }
     }
 
     /// The rectangle `rect` of a vertical frame; texture coordinates are (u, v) minus `uv_origin`.
-    pub(crate) fn frame_rect(&mut self, f: &Frame, rect: R2, uv_origin: [f32; 2], material: MaterialId, plane: PlaneId) {
+    pub(crate) fn frame_rect(
+        &mut self,
+        f: &Frame,
+        rect: R2,
+        uv_origin: [f32; 2],
+        material: MaterialId,
+        plane: PlaneId,
+    ) {
         let R2 { u0, v0, u1, v1 } = rect;
         let uv = |u: f32, v: f32| [u - uv_origin[0], v - uv_origin[1]];
         self.quad(
@@ -192,7 +232,15 @@ impl<'w> Mesh<'w> {
 
     /// A horizontal rectangle (x, y in `rect`) at height `z`, seen from above (`up`) or below;
     /// texture coordinates are world (x, y) minus `uv_origin`.
-    pub(crate) fn hrect(&mut self, rect: R2, z: f32, up: bool, uv_origin: [f32; 2], material: MaterialId, plane: PlaneId) {
+    pub(crate) fn hrect(
+        &mut self,
+        rect: R2,
+        z: f32,
+        up: bool,
+        uv_origin: [f32; 2],
+        material: MaterialId,
+        plane: PlaneId,
+    ) {
         let R2 { u0, v0, u1, v1 } = rect;
         let p = |x: f32, y: f32| Point3::new(x, y, z);
         let uv = |x: f32, y: f32| [x - uv_origin[0], y - uv_origin[1]];
@@ -203,24 +251,95 @@ impl<'w> Mesh<'w> {
         if up {
             self.quad(v, t, material, plane);
         } else {
-            self.quad([v[0], v[3], v[2], v[1]], [t[0], t[3], t[2], t[1]], material, plane);
+            self.quad(
+                [v[0], v[3], v[2], v[1]],
+                [t[0], t[3], t[2], t[1]],
+                material,
+                plane,
+            );
         }
     }
 
     /// A box of half-size `half` centred at the origin of `pose`, faces outwards, texture
     /// coordinates in metres along each face; `bottom` false leaves out the face underneath
     /// (for things standing on a floor).
-    pub(crate) fn cuboid(&mut self, pose: &Isometry3<f32>, half: Vector3<f32>, material: MaterialId, bottom: bool) {
+    pub(crate) fn cuboid(
+        &mut self,
+        pose: &Isometry3<f32>,
+        half: Vector3<f32>,
+        material: MaterialId,
+        bottom: bool,
+    ) {
         let (hx, hy, hz) = (half.x, half.y, half.z);
         let c = |x: f32, y: f32, z: f32| pose * Point3::new(x, y, z);
         // Each face: four corners counter-clockwise from outside, and its size (w, h).
         let faces: [([Point3<f32>; 4], f32, f32, bool); 6] = [
-            ([c(hx, -hy, -hz), c(hx, hy, -hz), c(hx, hy, hz), c(hx, -hy, hz)], 2.0 * hy, 2.0 * hz, true),
-            ([c(-hx, hy, -hz), c(-hx, -hy, -hz), c(-hx, -hy, hz), c(-hx, hy, hz)], 2.0 * hy, 2.0 * hz, true),
-            ([c(hx, hy, -hz), c(-hx, hy, -hz), c(-hx, hy, hz), c(hx, hy, hz)], 2.0 * hx, 2.0 * hz, true),
-            ([c(-hx, -hy, -hz), c(hx, -hy, -hz), c(hx, -hy, hz), c(-hx, -hy, hz)], 2.0 * hx, 2.0 * hz, true),
-            ([c(-hx, -hy, hz), c(hx, -hy, hz), c(hx, hy, hz), c(-hx, hy, hz)], 2.0 * hx, 2.0 * hy, true),
-            ([c(-hx, hy, -hz), c(hx, hy, -hz), c(hx, -hy, -hz), c(-hx, -hy, -hz)], 2.0 * hx, 2.0 * hy, bottom),
+            (
+                [
+                    c(hx, -hy, -hz),
+                    c(hx, hy, -hz),
+                    c(hx, hy, hz),
+                    c(hx, -hy, hz),
+                ],
+                2.0 * hy,
+                2.0 * hz,
+                true,
+            ),
+            (
+                [
+                    c(-hx, hy, -hz),
+                    c(-hx, -hy, -hz),
+                    c(-hx, -hy, hz),
+                    c(-hx, hy, hz),
+                ],
+                2.0 * hy,
+                2.0 * hz,
+                true,
+            ),
+            (
+                [
+                    c(hx, hy, -hz),
+                    c(-hx, hy, -hz),
+                    c(-hx, hy, hz),
+                    c(hx, hy, hz),
+                ],
+                2.0 * hx,
+                2.0 * hz,
+                true,
+            ),
+            (
+                [
+                    c(-hx, -hy, -hz),
+                    c(hx, -hy, -hz),
+                    c(hx, -hy, hz),
+                    c(-hx, -hy, hz),
+                ],
+                2.0 * hx,
+                2.0 * hz,
+                true,
+            ),
+            (
+                [
+                    c(-hx, -hy, hz),
+                    c(hx, -hy, hz),
+                    c(hx, hy, hz),
+                    c(-hx, hy, hz),
+                ],
+                2.0 * hx,
+                2.0 * hy,
+                true,
+            ),
+            (
+                [
+                    c(-hx, hy, -hz),
+                    c(hx, hy, -hz),
+                    c(hx, -hy, -hz),
+                    c(-hx, -hy, -hz),
+                ],
+                2.0 * hx,
+                2.0 * hy,
+                bottom,
+            ),
         ];
         for (v, w, h, keep) in faces {
             if keep {
@@ -230,10 +349,21 @@ impl<'w> Mesh<'w> {
     }
 
     /// An axis-aligned box between two corners (no plane id: clutter).
-    pub(crate) fn aabox(&mut self, min: Point3<f32>, max: Point3<f32>, material: MaterialId, bottom: bool) {
+    pub(crate) fn aabox(
+        &mut self,
+        min: Point3<f32>,
+        max: Point3<f32>,
+        material: MaterialId,
+        bottom: bool,
+    ) {
         let centre = nalgebra::center(&min, &max);
         let half = (max - min) / 2.0;
-        self.cuboid(&Isometry3::translation(centre.x, centre.y, centre.z), half, material, bottom);
+        self.cuboid(
+            &Isometry3::translation(centre.x, centre.y, centre.z),
+            half,
+            material,
+            bottom,
+        );
     }
 }
 
@@ -259,7 +389,12 @@ mod tests {
         let mut world = World::default();
         let mut mesh = Mesh::new(&mut world);
         let centre = Point3::new(1.0, 2.0, 3.0);
-        mesh.aabox(Point3::new(0.5, 1.5, 2.5), Point3::new(1.5, 2.5, 3.5), 0, true);
+        mesh.aabox(
+            Point3::new(0.5, 1.5, 2.5),
+            Point3::new(1.5, 2.5, 3.5),
+            0,
+            true,
+        );
         assert_eq!(world.triangles.len(), 12);
         for t in &world.triangles {
             let c = nalgebra::center(&nalgebra::center(&t.v[0], &t.v[1]), &t.v[2]);
@@ -277,7 +412,14 @@ mod tests {
         }
         mesh.hrect(R2::new(0.0, 0.0, 1.0, 1.0), 0.0, true, [0.0, 0.0], 0, 0);
         mesh.hrect(R2::new(0.0, 0.0, 1.0, 1.0), 3.0, false, [0.0, 0.0], 0, 0);
-        let want = [Vector3::x(), -Vector3::x(), Vector3::y(), -Vector3::y(), Vector3::z(), -Vector3::z()];
+        let want = [
+            Vector3::x(),
+            -Vector3::x(),
+            Vector3::y(),
+            -Vector3::y(),
+            Vector3::z(),
+            -Vector3::z(),
+        ];
         for (pair, n) in world.triangles.chunks(2).zip(want) {
             for t in pair {
                 assert!((t.normal() - n).norm() < 1e-6);

@@ -67,7 +67,13 @@ pub struct DefaultWorldConfig {
 
 impl Default for DefaultWorldConfig {
     fn default() -> Self {
-        Self { storey_height: 3.5, ceiling_height: 2.9, door_height: 2.1, open_doors: 0.7, furniture: true }
+        Self {
+            storey_height: 3.5,
+            ceiling_height: 2.9,
+            door_height: 2.1,
+            open_doors: 0.7,
+            furniture: true,
+        }
     }
 }
 
@@ -77,10 +83,17 @@ impl DefaultWorldConfig {
         let d = Self::default();
         let finite = |x: f32, fallback: f32| if x.is_finite() { x } else { fallback };
         let storey_height = finite(self.storey_height, d.storey_height).clamp(3.0, 5.0);
-        let ceiling_height = finite(self.ceiling_height, d.ceiling_height).clamp(2.4, storey_height - 0.3);
+        let ceiling_height =
+            finite(self.ceiling_height, d.ceiling_height).clamp(2.4, storey_height - 0.3);
         let door_height = finite(self.door_height, d.door_height).clamp(1.9, ceiling_height - 0.3);
         let open_doors = finite(self.open_doors, d.open_doors).clamp(0.0, 1.0);
-        Self { storey_height, ceiling_height, door_height, open_doors, furniture: self.furniture }
+        Self {
+            storey_height,
+            ceiling_height,
+            door_height,
+            open_doors,
+            furniture: self.furniture,
+        }
     }
 }
 
@@ -92,24 +105,20 @@ pub fn default_world(seed: u64, variant: Variant) -> World {
 /// The default building of `seed` under `variant`, with settings `cfg`.
 pub fn default_world_with(cfg: &DefaultWorldConfig, seed: u64, variant: Variant) -> World {
     let cfg = cfg.sanitized();
-    let t0 = std::time::Instant::now();
     let plan = plan::build(&cfg, seed);
     let mut world = World {
         name: format!("default building (seed {seed})"),
         atmosphere: Atmosphere::default(),
         ..World::default()
     };
-    eprintln!("'let mats = materials' {:?}", t0.elapsed());
     let mats = materials::Materials::create(&mut world, seed);
     let runs: Vec<Vec<grid::WallRun>> = plan
         .levels
         .iter()
         .map(|level| grid::Grid::new(level).wall_runs(level))
         .collect();
-    eprintln!("'world.regions = walk' {:?}", t0.elapsed());
     world.regions = walk::regions(&plan);
     world.walk = walk::graph(&plan, &world.regions);
-    eprintln!("'let disaster =' {:?}", t0.elapsed());
     let disaster = variant == Variant::Disaster;
     let decor: Vec<decor::LevelDecor> = plan
         .levels
@@ -128,8 +137,11 @@ pub fn default_world_with(cfg: &DefaultWorldConfig, seed: u64, variant: Variant)
             decor::decorate(&mut world, &cx)
         })
         .collect();
-    eprintln!("'let furniture_seed' {:?}", t0.elapsed());
-    let furniture_seed = rng::hash(&[seed, rng::text("furniture"), u64::from(variant == Variant::FurnitureMoved)]);
+    let furniture_seed = rng::hash(&[
+        seed,
+        rng::text("furniture"),
+        u64::from(variant == Variant::FurnitureMoved),
+    ]);
     let walk_graph = world.walk.clone();
     let mut mesh = mesh::Mesh::new(&mut world);
     for ((level, runs), decor) in plan.levels.iter().zip(&runs).zip(&decor) {
@@ -146,7 +158,13 @@ pub fn default_world_with(cfg: &DefaultWorldConfig, seed: u64, variant: Variant)
             .filter(|n| (n.p.z - level.floor_z).abs() < 1e-3)
             .map(|n| n.p.xy())
             .collect();
-        let site = furniture::Site { level, runs, decor, segments: &segments, nodes: &nodes };
+        let site = furniture::Site {
+            level,
+            runs,
+            decor,
+            segments: &segments,
+            nodes: &nodes,
+        };
         if cfg.furniture {
             let placed = furniture::furnish(&site, &mats, furniture_seed, disaster);
             furniture::emit(&mut mesh, &placed);
@@ -155,19 +173,8 @@ pub fn default_world_with(cfg: &DefaultWorldConfig, seed: u64, variant: Variant)
             furniture::debris(&mut mesh, &site, &mats, seed);
         }
     }
-    eprintln!("end {:?}", t0.elapsed());
     world
 }
 
 #[cfg(test)]
 mod tests;
-/// bench
-pub fn bench_grid() {
-    let plan = plan::build(&DefaultWorldConfig::default(), 3);
-    let t = std::time::Instant::now();
-    let grids: Vec<_> = plan.levels.iter().map(grid::Grid::new).collect();
-    eprintln!("grids {:?}", t.elapsed());
-    let t = std::time::Instant::now();
-    let n: usize = plan.levels.iter().zip(&grids).map(|(l, g)| g.wall_runs(l).len()).sum();
-    eprintln!("runs {n} {:?}", t.elapsed());
-}

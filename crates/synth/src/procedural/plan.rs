@@ -62,6 +62,7 @@ impl IRect {
     }
 
     /// True when the two share at least one cell.
+    #[cfg(test)]
     pub(crate) fn overlaps(&self, o: &IRect) -> bool {
         self.x0 < o.x1 && o.x0 < self.x1 && self.y0 < o.y1 && o.y0 < self.y1
     }
@@ -286,23 +287,66 @@ impl LevelBuilder<'_> {
         self.level.zones.len() - 1
     }
 
-    fn place(&self, building: u8, kind: PlaceKind, corridor: Option<u16>, axis: Option<f32>) -> Place {
-        Place { building, storey: self.storey(), corridor, kind, axis }
+    fn place(
+        &self,
+        building: u8,
+        kind: PlaceKind,
+        corridor: Option<u16>,
+        axis: Option<f32>,
+    ) -> Place {
+        Place {
+            building,
+            storey: self.storey(),
+            corridor,
+            kind,
+            axis,
+        }
     }
 
     /// A corridor segment; `key_storey` is the storey whose decoration it repeats.
-    fn corridor(&mut self, building: u8, r: IRect, axis: f32, id: u16, seg: u64, key_storey: u8) -> usize {
+    fn corridor(
+        &mut self,
+        building: u8,
+        r: IRect,
+        axis: f32,
+        id: u16,
+        seg: u64,
+        key_storey: u8,
+    ) -> usize {
         let place = self.place(building, PlaceKind::Corridor, Some(id), Some(axis));
-        let key = rng::hash(&[rng::text("corridor"), u64::from(building), u64::from(key_storey), seg]);
+        let key = rng::hash(&[
+            rng::text("corridor"),
+            u64::from(building),
+            u64::from(key_storey),
+            seg,
+        ]);
         let top = self.cfg.ceiling_height;
-        self.zone(Zone { kind: ZoneKind::Corridor, rects: vec![r], place, top, key, group: building })
+        self.zone(Zone {
+            kind: ZoneKind::Corridor,
+            rects: vec![r],
+            place,
+            top,
+            key,
+            group: building,
+        })
     }
 
     fn lobby(&mut self, building: u8, rects: Vec<IRect>) -> usize {
         let place = self.place(building, PlaceKind::Lobby, None, None);
-        let key = rng::hash(&[rng::text("lobby"), u64::from(building), u64::from(self.storey())]);
+        let key = rng::hash(&[
+            rng::text("lobby"),
+            u64::from(building),
+            u64::from(self.storey()),
+        ]);
         let top = self.cfg.ceiling_height;
-        self.zone(Zone { kind: ZoneKind::Lobby, rects, place, top, key, group: building })
+        self.zone(Zone {
+            kind: ZoneKind::Lobby,
+            rects,
+            place,
+            top,
+            key,
+            group: building,
+        })
     }
 
     /// A door zone and its opening between `outer` and `inner`.
@@ -320,17 +364,48 @@ impl LevelBuilder<'_> {
         top: f32,
     ) {
         let (place, group, key) = match self.level.zones.get(inner) {
-            Some(z) => (z.place.clone(), z.group, rng::hash(&[z.key, rng::text("door")])),
+            Some(z) => (
+                z.place.clone(),
+                z.group,
+                rng::hash(&[z.key, rng::text("door")]),
+            ),
             None => (self.place(0, PlaceKind::Lobby, None, None), 0, 0),
         };
-        let zone = self.zone(Zone { kind: ZoneKind::Door, rects: vec![r], place, top, key, group });
-        self.level.openings.push(Opening { zone, outer, inner, along_y, into, state, hinge_low, angle });
+        let zone = self.zone(Zone {
+            kind: ZoneKind::Door,
+            rects: vec![r],
+            place,
+            top,
+            key,
+            group,
+        });
+        self.level.openings.push(Opening {
+            zone,
+            outer,
+            inner,
+            along_y,
+            into,
+            state,
+            hinge_low,
+            angle,
+        });
     }
 
     /// Splits `strip` into rooms along x, each with a door onto `corridor` on the `side` edge
     /// (the wall between the strip and the corridor is two cells thick).
-    fn rooms_along(&mut self, building: u8, strip: IRect, side: Side, corridor: usize, rng: &mut Stream) {
-        let corridor_id = self.level.zones.get(corridor).and_then(|z| z.place.corridor);
+    fn rooms_along(
+        &mut self,
+        building: u8,
+        strip: IRect,
+        side: Side,
+        corridor: usize,
+        rng: &mut Stream,
+    ) {
+        let corridor_id = self
+            .level
+            .zones
+            .get(corridor)
+            .and_then(|z| z.place.corridor);
         let mut x = strip.x0;
         let (min_w, max_w) = (32, 66);
         let mut index = 0u64;
@@ -340,7 +415,11 @@ impl LevelBuilder<'_> {
                 remaining
             } else {
                 let w = rng::range_i(rng, min_w, max_w);
-                if remaining - w - 2 < min_w { remaining - 2 - min_w } else { w }
+                if remaining - w - 2 < min_w {
+                    remaining - 2 - min_w
+                } else {
+                    w
+                }
             };
             let r = IRect::new(x, strip.y0, x + w, strip.y1);
             x += w + 2;
@@ -370,13 +449,22 @@ impl LevelBuilder<'_> {
             ]);
             index += 1;
             let top = self.cfg.ceiling_height;
-            let room = self.zone(Zone { kind: ZoneKind::Room(kind), rects: vec![r], place, top, key, group: building });
+            let room = self.zone(Zone {
+                kind: ZoneKind::Room(kind),
+                rects: vec![r],
+                place,
+                top,
+                key,
+                group: building,
+            });
             let (door, into) = match side {
                 Side::North => (IRect::new(door_x, r.y1, door_x + DOOR_W, r.y1 + 2), -1),
                 Side::South => (IRect::new(door_x, r.y0 - 2, door_x + DOOR_W, r.y0), 1),
             };
             let door_top = self.cfg.door_height;
-            self.opening(door, corridor, room, true, into, state, hinge_low, angle, door_top);
+            self.opening(
+                door, corridor, room, true, into, state, hinge_low, angle, door_top,
+            );
         }
     }
 
@@ -390,13 +478,42 @@ impl LevelBuilder<'_> {
             IRect::new(0, 46, w, d).at(o),
         ];
         let place = self.place(building, PlaceKind::Stairwell, None, None);
-        let key = rng::hash(&[rng::text("stair"), u64::from(building), u64::from(self.storey())]);
-        let top = if self.level.top { self.cfg.ceiling_height } else { self.level.next_z - self.level.floor_z };
-        let zone = self.zone(Zone { kind: ZoneKind::Stair, rects, place, top, key, group: building });
-        self.level.shafts.push(Shaft { zone, origin: o, building });
+        let key = rng::hash(&[
+            rng::text("stair"),
+            u64::from(building),
+            u64::from(self.storey()),
+        ]);
+        let top = if self.level.top {
+            self.cfg.ceiling_height
+        } else {
+            self.level.next_z - self.level.floor_z
+        };
+        let zone = self.zone(Zone {
+            kind: ZoneKind::Stair,
+            rects,
+            place,
+            top,
+            key,
+            group: building,
+        });
+        self.level.shafts.push(Shaft {
+            zone,
+            origin: o,
+            building,
+        });
         let door = IRect::new(9, -2, 9 + DOOR_W, 0).at(o);
         let door_top = self.cfg.door_height;
-        self.opening(door, outer, zone, true, 1, DoorState::Leafless, true, 0.0, door_top);
+        self.opening(
+            door,
+            outer,
+            zone,
+            true,
+            1,
+            DoorState::Leafless,
+            true,
+            0.0,
+            door_top,
+        );
     }
 }
 
@@ -417,7 +534,12 @@ fn room_kind(rng: &mut Stream, r: IRect) -> RoomKind {
 
 /// The layout stream of one building and storey.
 fn layout_stream(seed: u64, building: u8, storey: u8) -> Stream {
-    rng::stream(&[seed, rng::text("layout"), u64::from(building), u64::from(storey)])
+    rng::stream(&[
+        seed,
+        rng::text("layout"),
+        u64::from(building),
+        u64::from(storey),
+    ])
 }
 
 /// Building 0: 42 m × 18 m, a straight double-loaded corridor along x; a lobby at the west end
@@ -430,16 +552,38 @@ fn building0(lb: &mut LevelBuilder, seed: u64, corridors: &mut Vec<Corridor>) ->
     let mut rng = layout_stream(seed, 0, twin);
     lb.level.solids.push(IRect::new(0, 0, 420, 180));
     let id = corridors.len() as u16;
-    corridors.push(Corridor { id, storey, shape: Shape::Straight });
+    corridors.push(Corridor {
+        id,
+        storey,
+        shape: Shape::Straight,
+    });
     let x0 = if storey == 0 { 100 } else { 3 };
     let corridor = lb.corridor(0, IRect::new(x0, 78, 417, 102), 0.0, id, 0, twin);
     if storey == 0 {
         lb.lobby(0, vec![IRect::new(3, 3, 100, 177)]);
     }
     let rx = if storey == 0 { 102 } else { 3 };
-    lb.rooms_along(0, IRect::new(rx, 3, 417, 76), Side::North, corridor, &mut rng);
-    lb.rooms_along(0, IRect::new(rx, 104, 198, 177), Side::South, corridor, &mut rng);
-    lb.rooms_along(0, IRect::new(230, 104, 417, 177), Side::South, corridor, &mut rng);
+    lb.rooms_along(
+        0,
+        IRect::new(rx, 3, 417, 76),
+        Side::North,
+        corridor,
+        &mut rng,
+    );
+    lb.rooms_along(
+        0,
+        IRect::new(rx, 104, 198, 177),
+        Side::South,
+        corridor,
+        &mut rng,
+    );
+    lb.rooms_along(
+        0,
+        IRect::new(230, 104, 417, 177),
+        Side::South,
+        corridor,
+        &mut rng,
+    );
     lb.stair(0, (200, 104), corridor);
     corridor
 }
@@ -458,10 +602,29 @@ fn building1(lb: &mut LevelBuilder, seed: u64, corridors: &mut Vec<Corridor>) ->
     // Walking the corridor from its east end: west along the south leg, north up the west
     // leg, east along the north leg.
     let south = lb.corridor(1, IRect::new(3, 60, 317, 84).at(o), PI, id, 0, storey);
-    lb.rooms_along(1, IRect::new(3, 3, 317, 58).at(o), Side::North, south, &mut rng);
-    lb.rooms_along(1, IRect::new(29, 86, 317, 129).at(o), Side::South, south, &mut rng);
+    lb.rooms_along(
+        1,
+        IRect::new(3, 3, 317, 58).at(o),
+        Side::North,
+        south,
+        &mut rng,
+    );
+    lb.rooms_along(
+        1,
+        IRect::new(29, 86, 317, 129).at(o),
+        Side::South,
+        south,
+        &mut rng,
+    );
     if storey == 0 {
-        lb.corridor(1, IRect::new(3, 84, 27, 131).at(o), FRAC_PI_2, id, 1, storey);
+        lb.corridor(
+            1,
+            IRect::new(3, 84, 27, 131).at(o),
+            FRAC_PI_2,
+            id,
+            1,
+            storey,
+        );
         let hall = lb.lobby(
             1,
             vec![
@@ -472,11 +635,36 @@ fn building1(lb: &mut LevelBuilder, seed: u64, corridors: &mut Vec<Corridor>) ->
         );
         lb.stair(1, (150 + o.0, 202 + o.1), hall);
     } else {
-        lb.corridor(1, IRect::new(3, 84, 27, 176).at(o), FRAC_PI_2, id, 1, storey);
+        lb.corridor(
+            1,
+            IRect::new(3, 84, 27, 176).at(o),
+            FRAC_PI_2,
+            id,
+            1,
+            storey,
+        );
         let north = lb.corridor(1, IRect::new(3, 176, 317, 200).at(o), 0.0, id, 2, storey);
-        lb.rooms_along(1, IRect::new(29, 131, 317, 174).at(o), Side::North, north, &mut rng);
-        lb.rooms_along(1, IRect::new(3, 202, 148, 267).at(o), Side::South, north, &mut rng);
-        lb.rooms_along(1, IRect::new(180, 202, 317, 267).at(o), Side::South, north, &mut rng);
+        lb.rooms_along(
+            1,
+            IRect::new(29, 131, 317, 174).at(o),
+            Side::North,
+            north,
+            &mut rng,
+        );
+        lb.rooms_along(
+            1,
+            IRect::new(3, 202, 148, 267).at(o),
+            Side::South,
+            north,
+            &mut rng,
+        );
+        lb.rooms_along(
+            1,
+            IRect::new(180, 202, 317, 267).at(o),
+            Side::South,
+            north,
+            &mut rng,
+        );
         lb.stair(1, (150 + o.0, 202 + o.1), north);
     }
     south
@@ -487,7 +675,11 @@ fn building1(lb: &mut LevelBuilder, seed: u64, corridors: &mut Vec<Corridor>) ->
 /// it is closer to.
 fn bridge(lb: &mut LevelBuilder, b0: usize, b1: usize, corridors: &mut Vec<Corridor>) {
     let id = corridors.len() as u16;
-    corridors.push(Corridor { id, storey: lb.storey(), shape: Shape::Bridge });
+    corridors.push(Corridor {
+        id,
+        storey: lb.storey(),
+        shape: Shape::Bridge,
+    });
     lb.level.solids.push(IRect::new(420, 75, 520, 78));
     lb.level.solids.push(IRect::new(420, 102, 520, 105));
     let top = lb.cfg.ceiling_height - 0.2;
@@ -497,11 +689,38 @@ fn bridge(lb: &mut LevelBuilder, b0: usize, b1: usize, corridors: &mut Vec<Corri
         let r = IRect::new(420 + 50 * b as i32, 78, 470 + 50 * b as i32, 102);
         let place = lb.place(building, PlaceKind::Bridge, Some(id), Some(0.0));
         let key = rng::hash(&[rng::text("bridge"), b as u64]);
-        *half = lb.zone(Zone { kind: ZoneKind::Bridge, rects: vec![r], place, top, key, group: 2 });
+        *half = lb.zone(Zone {
+            kind: ZoneKind::Bridge,
+            rects: vec![r],
+            place,
+            top,
+            key,
+            group: 2,
+        });
     }
     let link_top = (lb.cfg.ceiling_height - 0.5).max(lb.cfg.door_height);
-    lb.opening(IRect::new(417, 80, 420, 100), b0, halves[0], false, 1, DoorState::Leafless, true, 0.0, link_top);
-    lb.opening(IRect::new(520, 80, 523, 100), b1, halves[1], false, -1, DoorState::Leafless, true, 0.0, link_top);
+    lb.opening(
+        IRect::new(417, 80, 420, 100),
+        b0,
+        halves[0],
+        false,
+        1,
+        DoorState::Leafless,
+        true,
+        0.0,
+        link_top,
+    );
+    lb.opening(
+        IRect::new(520, 80, 523, 100),
+        b1,
+        halves[1],
+        false,
+        -1,
+        DoorState::Leafless,
+        true,
+        0.0,
+        link_top,
+    );
 }
 
 #[cfg(test)]

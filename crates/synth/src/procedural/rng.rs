@@ -14,7 +14,10 @@ pub(crate) type Stream = ChaCha8Rng;
 
 /// Mixes one 64-bit word into a hash state (SplitMix64 finaliser).
 fn mix(state: u64, word: u64) -> u64 {
-    let mut z = state ^ word.wrapping_add(0x9E37_79B9_7F4A_7C15).wrapping_add(state << 6);
+    let mut z = state
+        ^ word
+            .wrapping_add(0x9E37_79B9_7F4A_7C15)
+            .wrapping_add(state << 6);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)
@@ -50,7 +53,11 @@ pub(crate) fn range(rng: &mut Stream, lo: f32, hi: f32) -> f32 {
 
 /// Uniform integer in `[lo, hi]`; `lo` when the range is empty (never panics).
 pub(crate) fn range_i(rng: &mut Stream, lo: i32, hi: i32) -> i32 {
-    if hi > lo { rng.random_range(lo..=hi) } else { lo }
+    if hi > lo {
+        rng.random_range(lo..=hi)
+    } else {
+        lo
+    }
 }
 
 /// True with probability `p` (clamped to 0–1).

@@ -44,14 +44,38 @@ fn risers(level: &Level) -> (usize, f32) {
 /// Emits the stairs of `shaft` on `level`: its flights and mid landing (below the top storey),
 /// the underside of its landing slab (above the ground floor), and a railing on the top storey
 /// where the open well has no flight going up.
-pub(crate) fn emit(mesh: &mut Mesh, level: &Level, shaft: &Shaft, concrete: MaterialId, metal: MaterialId) {
+pub(crate) fn emit(
+    mesh: &mut Mesh,
+    level: &Level,
+    shaft: &Shaft,
+    concrete: MaterialId,
+    metal: MaterialId,
+) {
     let (x0, y0) = origin(shaft);
     let z = level.floor_z;
     if !level.top {
         let (n, rise) = risers(level);
         let mid = z + n as f32 * rise;
-        flight(mesh, (x0, x0 + A_X1), y0 + LANDING, 1.0, z, n, rise, concrete);
-        flight(mesh, (x0 + B_X0, x0 + WIDTH), y0 + LANDING + FLIGHT, -1.0, mid, n, rise, concrete);
+        flight(
+            mesh,
+            (x0, x0 + A_X1),
+            y0 + LANDING,
+            1.0,
+            z,
+            n,
+            rise,
+            concrete,
+        );
+        flight(
+            mesh,
+            (x0 + B_X0, x0 + WIDTH),
+            y0 + LANDING + FLIGHT,
+            -1.0,
+            mid,
+            n,
+            rise,
+            concrete,
+        );
         let landing = R2::new(x0, y0 + LANDING + FLIGHT, x0 + WIDTH, y0 + 6.0);
         mesh.hrect(landing, mid, true, [0.0, 0.0], concrete, 0);
         mesh.hrect(landing, mid - SLAB, false, [0.0, 0.0], concrete, 0);
@@ -61,7 +85,10 @@ pub(crate) fn emit(mesh: &mut Mesh, level: &Level, shaft: &Shaft, concrete: Mate
         mesh.hrect(slab, z - SLAB, false, [0.0, 0.0], concrete, 0);
     }
     if level.top {
-        let (a, b) = (Point3::new(x0, y0 + LANDING - 0.03, z), Point3::new(x0 + A_X1, y0 + LANDING + 0.03, z + 1.0));
+        let (a, b) = (
+            Point3::new(x0, y0 + LANDING - 0.03, z),
+            Point3::new(x0 + A_X1, y0 + LANDING + 0.03, z + 1.0),
+        );
         mesh.aabox(a, b, metal, false);
     }
 }
@@ -69,7 +96,16 @@ pub(crate) fn emit(mesh: &mut Mesh, level: &Level, shaft: &Shaft, concrete: Mate
 /// One flight: `n` steps of `rise` over [`FLIGHT`] metres, from `y_start` in direction `dir`
 /// (±1 along y), starting at height `base`.
 #[allow(clippy::too_many_arguments)]
-fn flight(mesh: &mut Mesh, x: (f32, f32), y_start: f32, dir: f32, base: f32, n: usize, rise: f32, material: MaterialId) {
+fn flight(
+    mesh: &mut Mesh,
+    x: (f32, f32),
+    y_start: f32,
+    dir: f32,
+    base: f32,
+    n: usize,
+    rise: f32,
+    material: MaterialId,
+) {
     let going = FLIGHT / n as f32;
     let back = Vector3::new(0.0, -dir, 0.0);
     for i in 0..n {
@@ -77,7 +113,14 @@ fn flight(mesh: &mut Mesh, x: (f32, f32), y_start: f32, dir: f32, base: f32, n: 
         let yb = ya + dir * going;
         let top = base + (i + 1) as f32 * rise;
         let bottom = base + i as f32 * rise;
-        mesh.hrect(R2::new(x.0, ya.min(yb), x.1, ya.max(yb)), top, true, [0.0, 0.0], material, 0);
+        mesh.hrect(
+            R2::new(x.0, ya.min(yb), x.1, ya.max(yb)),
+            top,
+            true,
+            [0.0, 0.0],
+            material,
+            0,
+        );
         let p = |xx: f32, zz: f32| Point3::new(xx, ya, zz);
         let w = x.1 - x.0;
         mesh.quad_facing(

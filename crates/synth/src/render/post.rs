@@ -20,7 +20,7 @@ pub(crate) struct Sensor {
 /// SplitMix64's finalizer: a well-mixed 64-bit hash, so noise needs no generator state and every
 /// pixel's noise depends only on the seed and the pixel.
 #[inline(always)]
-fn mix(mut z: u64) -> u64 {
+pub(crate) fn mix(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
     z ^ (z >> 31)
@@ -49,16 +49,22 @@ pub(crate) fn finish(accum: &[[f32; 3]], subframes: usize, rgb: &mut [u8], w: us
                 lut.encode_one(a[2] * f),
             ];
             if amp > 0.0 {
-                let hsh = mix(key.wrapping_add((i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)));
-                for (k, c) in px.iter_mut().enumerate() {
-                    let a = ((hsh >> (20 * k)) & 1023) as f32;
-                    let b = ((hsh >> (20 * k + 10)) & 1023) as f32;
-                    let v = *c as f32 + (a + b - 1023.0) * amp;
-                    *c = (v + 0.5).clamp(0.0, 255.0) as u8;
-                }
+                add_noise(&mut px, key, i, amp);
             }
             rgb[3 * i..3 * i + 3].copy_from_slice(&px);
         }
+    }
+}
+
+/// Adds the noise of pixel `i` (`amp`: bytes per unit of the triangular variate).
+#[inline(always)]
+pub(crate) fn add_noise(px: &mut [u8; 3], key: u64, i: usize, amp: f32) {
+    let hsh = mix(key.wrapping_add((i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)));
+    for (k, c) in px.iter_mut().enumerate() {
+        let a = ((hsh >> (20 * k)) & 1023) as f32;
+        let b = ((hsh >> (20 * k + 10)) & 1023) as f32;
+        let v = *c as f32 + (a + b - 1023.0) * amp;
+        *c = (v + 0.5).clamp(0.0, 255.0) as u8;
     }
 }
 

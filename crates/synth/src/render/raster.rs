@@ -342,23 +342,33 @@ impl Raster {
             y1 = y1.max(y);
             zmin = zmin.min(q[2]);
         }
+        !self.rect_hidden([x0, x1, y0, y1], zmin)
+    }
+
+    /// True when everything in the raster rectangle `[x0, x1, y0, y1]` (pixels) is already nearer
+    /// than `zmin` (or the rectangle is off the raster).
+    fn rect_hidden(&mut self, r: [f32; 4], zmin: f32) -> bool {
+        let Some(cam) = self.cam else {
+            return true;
+        };
         let (wl, hl) = (cam.w as f32 - 1.0, cam.h as f32 - 1.0);
-        if x1 < 0.0 || y1 < 0.0 || x0 > wl || y0 > hl {
-            return false;
+        let [x0, x1, y0, y1] = r;
+        if !(x1 >= 0.0 && y1 >= 0.0 && x0 <= wl && y0 <= hl) {
+            return true;
         }
         let tx0 = (x0.max(0.0).floor() as usize) / HIZ;
         let tx1 = (x1.min(wl).ceil() as usize) / HIZ;
         let ty0 = (y0.max(0.0).floor() as usize) / HIZ;
         let ty1 = (y1.min(hl).ceil() as usize) / HIZ;
-        let wcell = 1.0 / zmin;
+        let wnear = 1.0 / zmin;
         for ty in ty0..=ty1 {
             for tx in tx0..=tx1 {
-                if wcell >= self.hiz_at(tx, ty) {
-                    return true;
+                if wnear >= self.hiz_at(tx, ty) {
+                    return false;
                 }
             }
         }
-        false
+        true
     }
 
     /// The farthest `1/z` of a coarse tile, refreshed if stale.
@@ -478,15 +488,23 @@ impl Raster {
             }
         }
         let mut fx = [(0i64, 0i64); 9];
+        let mut rect = [f32::MAX, f32::MIN, f32::MAX, f32::MIN];
+        let mut zmin = f32::MAX;
         for (f, q) in fx.iter_mut().zip(&a[..n]) {
             let (x, y) = project(q);
             if !(x.is_finite() && y.is_finite()) {
                 return false;
             }
+            rect = [rect[0].min(x), rect[1].max(x), rect[2].min(y), rect[3].max(y)];
+            zmin = zmin.min(q[2]);
             *f = (
                 (x * SUB as f32).round() as i64,
                 (y * SUB as f32).round() as i64,
             );
+        }
+        // Hidden behind what is drawn already (most triangles of cells that are partly visible).
+        if self.rect_hidden(rect, zmin) {
+            return false;
         }
         let mut wrote = false;
         for i in 1..n - 1 {

@@ -1,16 +1,21 @@
-//! The second, shading pass: per output pixel, the visible triangle's depth, world position,
-//! texture and light — computed once per pixel, after visibility is settled.
+//! The second, shading pass: per output pixel, the visible triangle's depth, texture and light,
+//! computed once per pixel after visibility is settled.
 //!
 //! Lighting is Lambertian from point lights with a softened inverse-square falloff and a smooth
-//! range limit ([`RANGE`]); each 16x16 tile of the image takes the ≤ 8 lights nearest to what
-//! it shows, from the lights of the camera's storey that can reach the view. Without shadows,
-//! light passes through walls (a lamp in the next room brightens this side of the floor a
-//! little); with `shadows` every light is tested by a ray through the scene's grid.
+//! range limit ([`RANGE`]); each 16x16 tile of the image takes the ≤ 8 lights nearest to what it
+//! shows, from the lights of the camera's storey that can reach the view. Light varies slowly
+//! over a surface, so it is evaluated exactly on a grid of every fourth pixel and interpolated in
+//! between wherever the pixel and its four grid neighbours see the same triangle (elsewhere —
+//! along edges — it is evaluated per pixel); interpolating across tiles also hides the seams
+//! that per-tile light lists would leave. Without shadows, light passes through walls (a lamp in
+//! the next room brightens this side of the floor a little); with `shadows`, every light is
+//! tested with a ray through the scene's grid.
 
 use super::RenderMode;
 use super::lens::Lens;
+use super::post::Sensor;
 use super::raster::{NONE, Raster, View, VisTri};
-use super::scene::{Luts, RenderScene, dot32, luts};
+use super::scene::{RenderScene, dot32, luts};
 
 /// Tile side for light lists, pixels.
 const TILE: usize = 16;
@@ -28,6 +33,9 @@ const LIGHT_GAIN: f32 = 5.0;
 const EMISSIVE_GAIN: f32 = 2.5;
 /// Radiance of a window per unit albedo at full daylight.
 const WINDOW_GAIN: f32 = 1.6;
+/// Spacing of the grid where light is evaluated exactly, pixels (a power of two).
+const STEP_BITS: usize = 2;
+const STEP: usize = 1 << STEP_BITS;
 
 /// The lights of one tile, as parallel arrays padded with zero-intensity lights so the loop over
 /// them has a fixed length and vectorizes.
@@ -40,61 +48,107 @@ struct TileLights {
     n: usize,
 }
 
-/// Per-pixel results of the resolve step and per-tile light lists, reused between frames.
+/// What a tile shows: its range of `1/z` and of raster positions.
+#[derive(Clone, Copy, Debug)]
+struct TileExtent {
+    w: [f32; 2],
+    sx: [f32; 2],
+    sy: [f32; 2],
+}
+
+impl TileExtent {
+    const EMPTY: TileExtent = TileExtent {
+        w: [f32::MAX, f32::MIN],
+        sx: [f32::MAX, f32::MIN],
+        sy: [f32::MAX, f32::MIN],
+    };
+}
+
+/// Where shaded pixels go.
+pub(crate) enum Sink<'a> {
+    /// Straight to sRGB bytes, with the sensor model (a frame of one exposure).
+    Bytes(&'a mut [u8], Sensor),
+    /// Into linear radiance, set (`true`) or added (motion-blur sub-frames).
+    Accum(&'a mut [[f32; 3]], bool),
+}
+
+/// Per-pixel results of the resolve step, per-tile light lists and the light grid, reused
+/// between frames.
 #[derive(Debug, Default)]
 pub(crate) struct Shade {
     /// Visible triangle per output pixel (index into the raster's `vis`, [`NONE`]: nothing).
     pub vis: Vec<u32>,
     /// `1/z` per output pixel (0: nothing).
     pub w: Vec<f32>,
-    /// World position per output pixel.
-    pos: Vec<[f32; 3]>,
-    /// Bounding box of what each tile shows.
-    tile_box: Vec<([f32; 3], [f32; 3])>,
+    extent: Vec<TileExtent>,
     tiles: Vec<TileLights>,
     tiles_w: usize,
     /// Lights of this frame: (squared distance to the camera, light index).
     cand: Vec<(f32, u32)>,
+    /// Light grid: nodes per row and column.
+    nodes: [usize; 2],
+    /// Irradiance at each node.
+    node_e: Vec<f32>,
+    /// Triangle seen at each node.
+    node_id: Vec<u32>,
     width: usize,
     height: usize,
 }
 
 impl Shade {
-    /// Per output pixel: which triangle, its exact `1/z` at the pixel's (lens-mapped) raster
-    /// position, and its world position; per tile, the box of world positions.
-    pub fn resolve(&mut self, raster: &Raster, lens: &Lens, view: &View, w: usize, h: usize) {
+    /// Per output pixel: which triangle and its exact `1/z` at the pixel's (lens-mapped) raster
+    /// position; per tile, the range of what it shows.
+    pub fn resolve(&mut self, raster: &Raster, lens: &Lens, w: usize, h: usize) {
         let n = w * h;
         if self.width != w || self.height != h {
             self.vis.resize(n, NONE);
             self.w.resize(n, 0.0);
-            self.pos.resize(n, [0.0; 3]);
             self.tiles_w = w.div_ceil(TILE);
             let tiles = self.tiles_w * h.div_ceil(TILE);
-            self.tile_box.resize(tiles, ([0.0; 3], [0.0; 3]));
+            self.extent.resize(tiles, TileExtent::EMPTY);
             self.tiles.resize(tiles, TileLights::default());
+            self.nodes = [(w - 1).div_ceil(STEP) + 1, (h - 1).div_ceil(STEP) + 1];
+            self.node_e.resize(self.nodes[0] * self.nodes[1], 0.0);
+            self.node_id.resize(self.nodes[0] * self.nodes[1], NONE);
             self.width = w;
             self.height = h;
         }
-        let empty = ([f32::MAX; 3], [f32::MIN; 3]);
-        self.tile_box.fill(empty);
-        let direct = lens.map.is_empty();
+        self.extent.fill(TileExtent::EMPTY);
+        if lens.map.is_empty() {
+            self.vis.copy_from_slice(&raster.ids[..n]);
+            self.w.copy_from_slice(&raster.zbuf[..n]);
+            for y in 0..h {
+                let trow = (y / TILE) * self.tiles_w;
+                for tx in 0..self.tiles_w {
+                    let x0 = tx * TILE;
+                    let x1 = (x0 + TILE).min(w);
+                    let (mut lo, mut hi) = (f32::MAX, f32::MIN);
+                    for &v in &self.w[y * w + x0..y * w + x1] {
+                        if v > 0.0 {
+                            lo = lo.min(v);
+                            hi = hi.max(v);
+                        }
+                    }
+                    if lo <= hi {
+                        let e = &mut self.extent[trow + tx];
+                        e.w = [e.w[0].min(lo), e.w[1].max(hi)];
+                        e.sx = [x0 as f32 - 0.5, x1 as f32 - 0.5];
+                        e.sy = [e.sy[0].min(y as f32 - 0.5), y as f32 + 0.5];
+                    }
+                }
+            }
+            return;
+        }
         for y in 0..h {
             let trow = (y / TILE) * self.tiles_w;
             for x in 0..w {
                 let i = y * w + x;
-                let (sx, sy, ri) = if direct {
-                    (x as f32, y as f32, i)
-                } else {
-                    let s = lens.map[i];
-                    (s.sx, s.sy, s.idx as usize)
-                };
-                let id = raster.ids.get(ri).copied().unwrap_or(NONE);
+                let s = lens.map[i];
+                let id = raster.ids.get(s.idx as usize).copied().unwrap_or(NONE);
                 let wv = if id == NONE {
                     0.0
-                } else if direct {
-                    raster.zbuf[ri]
                 } else {
-                    raster.vis[id as usize].w_at(sx, sy)
+                    raster.vis[id as usize].w_at(s.sx, s.sy)
                 };
                 if !(wv > 0.0 && wv.is_finite()) {
                     self.vis[i] = NONE;
@@ -103,13 +157,10 @@ impl Shade {
                 }
                 self.vis[i] = id;
                 self.w[i] = wv;
-                let p = view.point(sx, sy, 1.0 / wv);
-                self.pos[i] = p;
-                let b = &mut self.tile_box[trow + x / TILE];
-                for k in 0..3 {
-                    b.0[k] = b.0[k].min(p[k]);
-                    b.1[k] = b.1[k].max(p[k]);
-                }
+                let e = &mut self.extent[trow + x / TILE];
+                e.w = [e.w[0].min(wv), e.w[1].max(wv)];
+                e.sx = [e.sx[0].min(s.sx), e.sx[1].max(s.sx)];
+                e.sy = [e.sy[0].min(s.sy), e.sy[1].max(s.sy)];
             }
         }
     }
@@ -140,36 +191,52 @@ impl Shade {
             .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         self.cand.truncate(MAX_FRAME_LIGHTS);
         let range2 = RANGE * RANGE;
-        for (t, (lo, hi)) in self.tile_box.iter().enumerate() {
-            let mut best = [(f32::MAX, 0u32); MAX_LIGHTS];
-            let mut count = 0;
-            if lo[0] <= hi[0] {
-                for &(_, li) in &self.cand {
-                    let p = scene.lights.pos[li as usize];
-                    let d2: f32 = (0..3)
-                        .map(|k| {
-                            let d = (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0);
-                            d * d
-                        })
-                        .sum();
-                    if d2 >= range2 {
-                        continue;
-                    }
-                    // Insertion into the sorted list of the nearest.
-                    let mut j = count.min(MAX_LIGHTS - 1);
-                    if count == MAX_LIGHTS && d2 >= best[j].0 {
-                        continue;
-                    }
-                    while j > 0 && best[j - 1].0 > d2 {
-                        best[j] = best[j - 1];
-                        j -= 1;
-                    }
-                    best[j] = (d2, li);
-                    count = (count + 1).min(MAX_LIGHTS);
-                }
-            }
+        for (t, ext) in self.extent.iter().enumerate() {
             let tl = &mut self.tiles[t];
             *tl = TileLights::default();
+            if !(ext.w[0] <= ext.w[1]) || self.cand.is_empty() {
+                continue;
+            }
+            // World box of the tile's frustum slice between its nearest and farthest depth.
+            let (z0, z1) = (1.0 / ext.w[1], 1.0 / ext.w[0]);
+            let mut lo = [f32::MAX; 3];
+            let mut hi = [f32::MIN; 3];
+            for sx in ext.sx {
+                for sy in ext.sy {
+                    for z in [z0, z1] {
+                        let p = view.point(sx, sy, z);
+                        for k in 0..3 {
+                            lo[k] = lo[k].min(p[k]);
+                            hi[k] = hi[k].max(p[k]);
+                        }
+                    }
+                }
+            }
+            let mut best = [(f32::MAX, 0u32); MAX_LIGHTS];
+            let mut count = 0;
+            for &(_, li) in &self.cand {
+                let p = scene.lights.pos[li as usize];
+                let d2: f32 = (0..3)
+                    .map(|k| {
+                        let d = (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0);
+                        d * d
+                    })
+                    .sum();
+                if d2 >= range2 {
+                    continue;
+                }
+                // Insertion into the sorted list of the nearest.
+                let mut j = count.min(MAX_LIGHTS - 1);
+                if count == MAX_LIGHTS && d2 >= best[j].0 {
+                    continue;
+                }
+                while j > 0 && best[j - 1].0 > d2 {
+                    best[j] = best[j - 1];
+                    j -= 1;
+                }
+                best[j] = (d2, li);
+                count = (count + 1).min(MAX_LIGHTS);
+            }
             tl.n = count;
             for (k, &(_, li)) in best[..count].iter().enumerate() {
                 let p = scene.lights.pos[li as usize];
@@ -181,123 +248,185 @@ impl Shade {
         }
     }
 
-    /// Linear radiance of every output pixel into `accum` (added to it unless `first`).
+    /// Raster position of output pixel `i` at `(x, y)`.
+    #[inline(always)]
+    fn sample_pos(lens: &Lens, i: usize, x: usize, y: usize) -> (f32, f32) {
+        if lens.map.is_empty() {
+            (x as f32, y as f32)
+        } else {
+            (lens.map[i].sx, lens.map[i].sy)
+        }
+    }
+
+    /// Direct irradiance at output pixel `(x, y)` on triangle `t`.
+    #[inline(always)]
+    fn irradiance_at(&self, scene: &RenderScene, raster: &mut Raster, lens: &Lens, view: &View, x: usize, y: usize, shadows: bool) -> f32 {
+        let i = y * self.width + x;
+        let t = &raster.vis[self.vis[i] as usize];
+        let n = t.n;
+        let (sx, sy) = Self::sample_pos(lens, i, x, y);
+        let p = view.point(sx, sy, 1.0 / self.w[i]);
+        let tl = &self.tiles[(y / TILE) * self.tiles_w + x / TILE];
+        if tl.n == 0 {
+            0.0
+        } else if shadows {
+            shadowed(scene, raster, tl, p, n)
+        } else if tl.n <= 4 {
+            direct4(tl, p, n)
+        } else {
+            direct8(tl, p, n)
+        }
+    }
+
+    /// Shades every output pixel into `sink`.
     #[allow(clippy::too_many_arguments)]
     pub fn shade(
-        &self,
+        &mut self,
         scene: &RenderScene,
         raster: &mut Raster,
         lens: &Lens,
         view: &View,
         mode: RenderMode,
         shadows: bool,
-        accum: &mut [[f32; 3]],
-        first: bool,
+        sink: Sink<'_>,
     ) {
-        let lut = luts();
         let (w, h) = (self.width, self.height);
+        // Light on the grid of every STEP-th pixel.
+        let [nx, ny] = self.nodes;
+        for j in 0..ny {
+            let y = (j * STEP).min(h - 1);
+            for k in 0..nx {
+                let x = (k * STEP).min(w - 1);
+                let id = self.vis[y * w + x];
+                let e = if id == NONE {
+                    0.0
+                } else {
+                    self.irradiance_at(scene, raster, lens, view, x, y, shadows)
+                };
+                self.node_e[j * nx + k] = e;
+                self.node_id[j * nx + k] = id;
+            }
+        }
+        let lut = luts();
         let background = if scene.haze > 0.0 {
             scene.haze_color
         } else {
             [0.0; 3]
         };
         let textured = mode != RenderMode::Shaded;
-        let direct = lens.map.is_empty();
+        let cam = view.cam;
+        // Sensor model, when writing bytes.
+        let (mut bytes, mut accum, sensor) = match sink {
+            Sink::Bytes(b, s) => (Some(b), None, s),
+            Sink::Accum(a, first) => (
+                None,
+                Some((a, first)),
+                Sensor {
+                    noise: 0.0,
+                    vignetting: 0.0,
+                    seed: 0,
+                },
+            ),
+        };
+        let (vcx, vcy) = ((w as f32 - 1.0) / 2.0, (h as f32 - 1.0) / 2.0);
+        let vig = sensor.vignetting.clamp(0.0, 1.0) / (vcx * vcx + vcy * vcy).max(1.0);
+        // Triangular noise of two 10-bit uniforms has σ = 1/√6 of its half-width.
+        let amp = sensor.noise.max(0.0) * 255.0 * 6f32.sqrt() / 1023.0;
+        let key = super::post::mix(sensor.seed ^ 0x5851_f42d_4c95_7f2d);
         for y in 0..h {
-            let trow = (y / TILE) * self.tiles_w;
+            let j0 = y >> STEP_BITS;
+            let j1 = (j0 + 1).min(ny - 1);
+            let (ya, yb) = (j0 * STEP, (j1 * STEP).min(h - 1));
+            let fy = if yb > ya { (y - ya) as f32 / (yb - ya) as f32 } else { 0.0 };
+            let dy2 = (y as f32 - vcy) * (y as f32 - vcy);
             for x in 0..w {
                 let i = y * w + x;
                 let id = self.vis[i];
                 let rad = if id == NONE {
                     background
                 } else {
-                    let t = raster.vis[id as usize];
-                    let (sx, sy) = if direct {
-                        (x as f32, y as f32)
+                    let t: VisTri = raster.vis[id as usize];
+                    let m = &scene.materials[t.material as usize];
+                    let wv = self.w[i];
+                    let z = 1.0 / wv;
+                    let (sx, sy) = Self::sample_pos(lens, i, x, y);
+                    // Light: interpolated on the grid when its four nodes see this triangle.
+                    let k0 = x >> STEP_BITS;
+                    let k1 = (k0 + 1).min(nx - 1);
+                    let (n00, n10) = (j0 * nx + k0, j0 * nx + k1);
+                    let (n01, n11) = (j1 * nx + k0, j1 * nx + k1);
+                    let ids = &self.node_id;
+                    let e = if ids[n00] == id && ids[n10] == id && ids[n01] == id && ids[n11] == id {
+                        let (xa, xb) = (k0 * STEP, (k1 * STEP).min(w - 1));
+                        let fx = if xb > xa { (x - xa) as f32 / (xb - xa) as f32 } else { 0.0 };
+                        let ne = &self.node_e;
+                        let top = ne[n00] + (ne[n10] - ne[n00]) * fx;
+                        let bot = ne[n01] + (ne[n11] - ne[n01]) * fx;
+                        top + (bot - top) * fy
                     } else {
-                        (lens.map[i].sx, lens.map[i].sy)
+                        self.irradiance_at(scene, raster, lens, view, x, y, shadows)
                     };
-                    let tl = &self.tiles[trow + x / TILE];
-                    self.pixel(scene, raster, lut, &t, tl, i, sx, sy, textured, shadows, view)
+                    let albedo = if textured {
+                        let u = (t.u[0] * sx + (t.u[1] * sy + t.u[2])) * z;
+                        let v = (t.v[0] * sx + (t.v[1] * sy + t.v[2])) * z;
+                        // Screen derivatives of u and v: du/dx = z·(d(u/z)/dx − u·d(1/z)/dx).
+                        let dudx = t.u[0] - u * t.w[0];
+                        let dudy = t.u[1] - u * t.w[1];
+                        let dvdx = t.v[0] - v * t.w[0];
+                        let dvdy = t.v[1] - v * t.w[1];
+                        let rx = dudx * dudx * m.mips.su2 + dvdx * dvdx * m.mips.sv2;
+                        let ry = dudy * dudy * m.mips.su2 + dvdy * dvdy * m.mips.sv2;
+                        let c = m.mips.sample(u, v, rx.max(ry) * (z * z));
+                        [
+                            lut.to_linear[(c & 0xff) as usize],
+                            lut.to_linear[((c >> 8) & 0xff) as usize],
+                            lut.to_linear[((c >> 16) & 0xff) as usize],
+                        ]
+                    } else {
+                        m.albedo
+                    };
+                    let e = scene.ambient + e;
+                    let mut light = if m.window {
+                        0.05 + 0.3 * e + WINDOW_GAIN * scene.daylight
+                    } else {
+                        e
+                    };
+                    light += m.emissive * EMISSIVE_GAIN;
+                    let mut rad = albedo.map(|a| a * light);
+                    if scene.haze > 0.0 {
+                        let rx = (sx - cam.cx) / cam.fx;
+                        let ry = (sy - cam.cy) / cam.fy;
+                        let dist = z * (1.0 + rx * rx + ry * ry).sqrt();
+                        let f = (-scene.haze * dist).exp();
+                        for k in 0..3 {
+                            rad[k] = rad[k] * f + scene.haze_color[k] * (1.0 - f);
+                        }
+                    }
+                    rad
                 };
-                if first {
-                    accum[i] = rad;
-                } else {
-                    for k in 0..3 {
-                        accum[i][k] += rad[k];
+                if let Some(out) = bytes.as_deref_mut() {
+                    let dx = x as f32 - vcx;
+                    let f = 1.0 - vig * (dx * dx + dy2);
+                    let mut px = [
+                        lut.encode_one(rad[0] * f),
+                        lut.encode_one(rad[1] * f),
+                        lut.encode_one(rad[2] * f),
+                    ];
+                    if amp > 0.0 {
+                        super::post::add_noise(&mut px, key, i, amp);
+                    }
+                    out[3 * i..3 * i + 3].copy_from_slice(&px);
+                } else if let Some((acc, first)) = accum.as_mut() {
+                    if *first {
+                        acc[i] = rad;
+                    } else {
+                        for k in 0..3 {
+                            acc[i][k] += rad[k];
+                        }
                     }
                 }
             }
         }
-    }
-
-    /// Radiance of one covered pixel.
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    fn pixel(
-        &self,
-        scene: &RenderScene,
-        raster: &mut Raster,
-        lut: &Luts,
-        t: &VisTri,
-        tl: &TileLights,
-        i: usize,
-        sx: f32,
-        sy: f32,
-        textured: bool,
-        shadows: bool,
-        view: &View,
-    ) -> [f32; 3] {
-        let m = &scene.materials[t.material as usize];
-        let wv = self.w[i];
-        let z = 1.0 / wv;
-        let p = self.pos[i];
-        let albedo = if textured {
-            let uz = t.u[0] * sx + (t.u[1] * sy + t.u[2]);
-            let vz = t.v[0] * sx + (t.v[1] * sy + t.v[2]);
-            let u = uz * z;
-            let v = vz * z;
-            // Screen derivatives of u and v: d(u)/dx = z·(du/z/dx − u·d(1/z)/dx).
-            let dudx = z * (t.u[0] - u * t.w[0]);
-            let dudy = z * (t.u[1] - u * t.w[1]);
-            let dvdx = z * (t.v[0] - v * t.w[0]);
-            let dvdy = z * (t.v[1] - v * t.w[1]);
-            let rx = dudx * dudx * m.mips.su2 + dvdx * dvdx * m.mips.sv2;
-            let ry = dudy * dudy * m.mips.su2 + dvdy * dvdy * m.mips.sv2;
-            let c = m.mips.sample(u, v, rx.max(ry));
-            [
-                lut.to_linear[(c & 0xff) as usize],
-                lut.to_linear[((c >> 8) & 0xff) as usize],
-                lut.to_linear[((c >> 16) & 0xff) as usize],
-            ]
-        } else {
-            m.albedo
-        };
-        let direct = if tl.n == 0 {
-            0.0
-        } else if shadows {
-            shadowed(scene, raster, tl, p, t.n)
-        } else if tl.n <= 4 {
-            direct4(tl, p, t.n)
-        } else {
-            direct8(tl, p, t.n)
-        };
-        let e = scene.ambient + direct;
-        let mut light = if m.window {
-            0.05 + 0.3 * e + WINDOW_GAIN * scene.daylight
-        } else {
-            e
-        };
-        light += m.emissive * EMISSIVE_GAIN;
-        let mut rad = albedo.map(|a| a * light);
-        if scene.haze > 0.0 {
-            let d = [p[0] - view.c[0], p[1] - view.c[1], p[2] - view.c[2]];
-            let f = (-scene.haze * dot32(d, d).sqrt()).exp();
-            for k in 0..3 {
-                rad[k] = rad[k] * f + scene.haze_color[k] * (1.0 - f);
-            }
-        }
-        rad
     }
 }
 

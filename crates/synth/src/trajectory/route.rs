@@ -443,3 +443,8 @@ fn components(adj: &[Vec<(usize, f64)>]) -> Vec<usize> {
     }
     comp
 }
+
+#[cfg(test)]
+pub(crate) fn components_for_test(g: &Graph<'_>) -> Vec<usize> {
+    g.comp.clone()
+}

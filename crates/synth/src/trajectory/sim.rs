@@ -24,7 +24,7 @@ const A_LAT: f64 = 1.0;
 const K_YAW: f64 = 2.5;
 /// Largest yaw acceleration, rad/s²: turns start and end smoothly.
 const ALPHA_MAX: f64 = 4.0;
-/// Heading error (to the path's direction) up to which the walker keeps full speed, and from
+/// Heading error (to the look-ahead target) up to which the walker keeps full speed, and from
 /// which it stands still to turn.
 const ALIGN_FULL: f64 = 25.0 * PI / 180.0;
 const ALIGN_STOP: f64 = 70.0 * PI / 180.0;
@@ -242,16 +242,14 @@ pub(crate) fn simulate(
                 pitch += (pitch_target - pitch) * (1.0 - (-dt / 0.6).exp());
             }
 
-            // Speed: the pace, capped by what lies ahead, and only while facing the way.
+            // Speed: the pace, capped by what lies ahead, and only while facing where the walk
+            // goes next (the look-ahead target, not the tangent here: facing into a corner
+            // before reaching it is what people do, and the target only moves when the walker
+            // does, so waiting to face it can never stall).
             let v_target = if pause.is_some() {
                 0.0
             } else {
-                let txy = tangent.xy().norm();
-                let align = if txy > 1e-6 {
-                    wrap_angle(tangent.y.atan2(tangent.x) - yaw).abs()
-                } else {
-                    0.0
-                };
+                let align = wrap_angle(target_yaw - yaw).abs();
                 let f = ((align.cos() - ALIGN_STOP.cos()) / (ALIGN_FULL.cos() - ALIGN_STOP.cos()))
                     .clamp(0.0, 1.0);
                 w.desired_speed(t).min(path.speed_limit(s, A_DEC, 4.0)) * f

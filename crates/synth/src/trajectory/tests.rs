@@ -471,11 +471,36 @@ fn debug_default_world() -> TestResult {
         world.lights.len(),
         world.triangles.len()
     );
+    {
+        let g = Graph::new(&world)?;
+        let mut per: std::collections::BTreeMap<String, (usize, usize)> = Default::default();
+        for i in 0..world.walk.nodes.len() {
+            let e = per.entry(format!("{:?} {:?}", g.storey[i], g.kind[i])).or_default();
+            e.0 += 1;
+            e.1 += g.adj[i].len();
+        }
+        eprintln!("{per:#?}");
+        let cross: Vec<_> = world.walk.edges.iter().filter(|&&[a, b]| g.storey[a] != g.storey[b]).map(|&[a, b]| (g.storey[a], g.storey[b], world.walk.nodes[a].p, world.walk.nodes[b].p)).collect();
+        eprintln!("storey-crossing edges {}: {:?}", cross.len(), &cross[..cross.len().min(6)]);
+        let mut comp = std::collections::BTreeMap::new();
+        for c in super::route::components_for_test(&g) { *comp.entry(c).or_insert(0) += 1; }
+        eprintln!("components {:?}", comp);
+        let mut r = rng(3, stream::START);
+        let start = g.random_start(&mut r);
+        let style = route::RouteStyle { room_probability: 0.2, storey_dwell_m: Some([60.0, 150.0]) };
+        let rt = g.route(start, 500.0, &style, &mut rng(3, stream::ROUTE));
+        for &i in rt.iter().take(80) {
+            eprintln!("{i} {:?} {:?} {:?} deg {}", world.walk.nodes[i].p, g.storey[i], g.kind[i], g.adj[i].len());
+        }
+    }
     for (rig, n) in [(Rig::forward(), 20000), (Rig::ceiling(), 10000)] {
         let cfg = WalkConfig::for_rig(rig.clone());
         let t = std::time::Instant::now();
         let frames = walk(&world, &cfg, n, 3)?;
         eprintln!("{n} frames in {:?}", t.elapsed());
+        for (i, f) in frames.iter().enumerate().step_by(25).take(60) {
+            eprintln!("F {i} {:.2?} h {:.1}", f.pose.translation, f.pose.to_pose3(rig.mount()).heading.to_degrees());
+        }
         let mut storeys = std::collections::BTreeMap::new();
         let mut kinds = std::collections::BTreeMap::new();
         let mut no_place = 0;
@@ -510,5 +535,40 @@ fn debug_default_world() -> TestResult {
     let n = crate::variants::Crowd::suggested_count(&w3);
     let crowd = crate::variants::Crowd::new(&mut w3, n, 1);
     eprintln!("crowd {} tris {}", crowd.len(), crowd.triangles_at(&w3, 10.0).len());
+    Ok(())
+}
+
+#[test]
+fn walker_never_stalls_on_short_sharp_zigzags() -> TestResult {
+    // Short edges (0.5–1.5 m) with 100–140° turns: the look-ahead point lies far off the
+    // current edge's direction, which must not stop the walker for good.
+    let mut world = test_world::world();
+    let mut nodes = Vec::new();
+    let mut p = Point3::new(0.0f32, 0.0, 0.0);
+    let mut heading = 0.0f32;
+    for k in 0..40 {
+        nodes.push(crate::world::WalkNode { p, region: CORRIDOR_A });
+        let len = 0.5 + (k % 3) as f32 * 0.5;
+        let turn = [100.0f32, -120.0, 140.0, -100.0][k % 4].to_radians();
+        heading += turn;
+        p += nalgebra::Vector3::new(heading.cos(), heading.sin(), 0.0) * len;
+    }
+    let edges = (1..nodes.len()).map(|i| [i - 1, i]).collect();
+    world.walk = WalkGraph { nodes, edges };
+    for rig in [Rig::forward(), Rig::ceiling()] {
+        let cfg = WalkConfig {
+            pause_probability: 0.0,
+            ..WalkConfig::for_rig(rig)
+        };
+        let frames = walk(&world, &cfg, 1500, 1)?;
+        let mut run = 0;
+        let mut longest = 0;
+        for s in xy_steps(&frames) {
+            run = if s < 1e-4 { run + 1 } else { 0 };
+            longest = longest.max(run);
+        }
+        // Turning round at a dead end at 45°/s takes 4 s; nothing should take longer.
+        assert!(longest as f64 / cfg.fps < 6.0, "stood still {longest} frames");
+    }
     Ok(())
 }
