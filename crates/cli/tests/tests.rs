@@ -2,4 +2,5 @@
 
 mod eval_cli;
 mod metrics_reference;
+mod synth_cli;
 mod util;

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 
 /// Result type of the tests.
-pub type TestResult = Result<(), Box<dyn std::error::Error>>;
+pub type TestResult<T = ()> = Result<T, Box<dyn std::error::Error>>;
 
 /// Runs `indoorloc` with `args`.
 pub fn indoorloc(args: &[&str]) -> std::io::Result<Output> {

@@ -44,7 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             };
             let mut r = Renderer::new();
             r.render(&scene, &camera, &poses[0], &opts, &[])?;
-            let mut sum = [0u64; 6];
+            let mut sum = [0u64; 7];
             let start = Instant::now();
             let cpu0 = thread_cpu_ns();
             for (i, pose) in poses.iter().enumerate() {
@@ -61,6 +61,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     s.triangles_drawn as u64,
                     s.raster_ns,
                     s.shade_ns,
+                    s.lit_exactly as u64,
                 ]) {
                     *a += b;
                 }
@@ -73,7 +74,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             println!(
                 "{w}x{h} {:<9} {:>6.0} frames/s  {:>6.3} ms/frame (CPU time; wall {:.3} ms)  \
                  raster {:.3} ms, shade {:.3} ms; cells {:.0} in view, {:.0} hidden; \
-                 triangles {:.0} set up, {:.0} drawn",
+                 triangles {:.0} set up, {:.0} drawn; pixels lit exactly {:.0}",
                 mode.name(),
                 n / secs,
                 secs * 1e3 / n,
@@ -84,6 +85,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 per(1),
                 per(2),
                 per(3),
+                per(6),
             );
         }
     }

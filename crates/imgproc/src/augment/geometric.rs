@@ -213,13 +213,16 @@ pub fn warp_affine<P: Pixel<Subpixel = u8>>(
             "cannot warp an empty {sw}x{sh} image"
         )));
     }
+    if dw == 0 || dh == 0 {
+        return Ok(());
+    }
     let s = Sampler {
-        src,
+        src: bytes(src)?,
         sw: sw as usize,
         sh: sh as usize,
         border,
     };
-    let d: &mut [u8] = dst;
+    let d = bytes_mut(dst)?;
     match P::CHANNEL_COUNT {
         1 => warp_impl::<1>(&s, d, dw as usize, dh as usize, &inv),
         2 => warp_impl::<2>(&s, d, dw as usize, dh as usize, &inv),
@@ -298,6 +301,29 @@ pub(crate) fn same_size<P: Pixel<Subpixel = u8>>(
     Ok(())
 }
 
+/// The image's bytes, exactly `width · height · channels` of them (an `ImageBuffer` may hold a
+/// longer vector; the ops never touch the tail).
+pub(crate) fn bytes<P: Pixel<Subpixel = u8>>(img: &ImageBuffer<P, Vec<u8>>) -> Result<&[u8]> {
+    let len = byte_len::<P>(img.width(), img.height());
+    img.as_raw()
+        .get(..len)
+        .ok_or_else(|| ImgprocError::Size(format!("buffer shorter than {len} bytes")))
+}
+
+/// Mutable [`bytes`].
+pub(crate) fn bytes_mut<P: Pixel<Subpixel = u8>>(
+    img: &mut ImageBuffer<P, Vec<u8>>,
+) -> Result<&mut [u8]> {
+    let len = byte_len::<P>(img.width(), img.height());
+    let all: &mut [u8] = img;
+    all.get_mut(..len)
+        .ok_or_else(|| ImgprocError::Size(format!("buffer shorter than {len} bytes")))
+}
+
+fn byte_len<P: Pixel<Subpixel = u8>>(w: u32, h: u32) -> usize {
+    w as usize * h as usize * usize::from(P::CHANNEL_COUNT)
+}
+
 /// Index of `i` mirrored into `0..n` without repeating the edge (`BORDER_REFLECT_101`).
 pub(crate) fn reflect101(i: i64, n: usize) -> usize {
     let n = n as i64;
@@ -333,30 +359,36 @@ impl Sampler<'_> {
     }
 }
 
-/// Fractional bits of the fixed-point sample positions: 1/1024 pixel, far below what bilinear
-/// interpolation of 8-bit images can show.
+/// Fractional bits of the fixed-point sample positions used for interpolation: 1/1024 pixel, far
+/// below what bilinear interpolation of 8-bit images can show.
 const FRAC_BITS: u32 = 10;
 const ONE: u32 = 1 << FRAC_BITS;
+/// Fractional bits of the running source position along a row: the per-pixel step is rounded to
+/// 2⁻²⁴ pixel, so after 4096 steps the position is off by less than 2⁻¹² pixel.
+const RUN_BITS: u32 = 24;
 
-/// Bilinear warp in fixed point (as OpenCV's `remap` does): each sample position is rounded to
-/// 1/1024 pixel once, and the interpolation runs on integers, exact at integer positions (so
-/// rotations by 0 and quarter turns reproduce the source bytes).
+/// Bilinear warp in fixed point (as OpenCV's `remap` does): the source position runs along each
+/// destination row by integer steps, and the interpolation runs on integers, so there is no
+/// float work per pixel; exact at integer positions (rotations by 0 and quarter turns reproduce
+/// the source bytes).
 fn warp_impl<const C: usize>(s: &Sampler<'_>, dst: &mut [u8], dw: usize, dh: usize, inv: &Affine2) {
     let m = &inv.m;
-    let scale = f64::from(ONE);
+    let run = f64::from(1u32 << RUN_BITS);
+    let fixed = |v: f64| floor_i64(v * run + 0.5);
+    let (step_x, step_y) = (fixed(m[0]), fixed(m[3]));
     let (sw, sh) = (s.sw as i64, s.sh as i64);
+    // Rounds a running position to the interpolation grid: integer pixel and 10-bit fraction.
+    let split = |p: i64| {
+        let q = p.saturating_add(1 << (RUN_BITS - FRAC_BITS - 1)) >> (RUN_BITS - FRAC_BITS);
+        (q >> FRAC_BITS, (q & i64::from(ONE - 1)) as u32)
+    };
     for (y, row) in dst.chunks_exact_mut(dw * C).take(dh).enumerate() {
         let yf = y as f64;
-        let (bx, by) = (m[1] * yf + m[2], m[4] * yf + m[5]);
-        for (x, out) in row.chunks_exact_mut(C).enumerate() {
-            let xf = x as f64;
-            let (sx, sy) = (m[0] * xf + bx, m[3] * xf + by);
-            let (px, py) = (
-                floor_i64(sx * scale + 0.5),
-                floor_i64(sy * scale + 0.5),
-            );
-            let (x0, y0) = (px >> FRAC_BITS, py >> FRAC_BITS);
-            let (fx, fy) = ((px & i64::from(ONE - 1)) as u32, (py & i64::from(ONE - 1)) as u32);
+        let (mut rx, mut ry) = (fixed(m[1] * yf + m[2]), fixed(m[4] * yf + m[5]));
+        for out in row.chunks_exact_mut(C) {
+            let ((x0, fx), (y0, fy)) = (split(rx), split(ry));
+            rx = rx.saturating_add(step_x);
+            ry = ry.saturating_add(step_y);
             if x0 >= 0 && y0 >= 0 && x0 + 1 < sw && y0 + 1 < sh {
                 // Fast path: all four neighbours inside. Fixed-size slices let the compiler
                 // drop the per-channel bounds checks.

@@ -516,7 +516,7 @@ pub fn augment_into<P: Pixel<Subpixel = u8>>(
     }
     let (wu, hu) = (w as usize, h as usize);
     // `cur` holds the image so far; ops that cannot work in place write to `tmp` and swap.
-    let mut cur: Vec<u8> = img.as_raw().clone();
+    let mut cur: Vec<u8> = geometric::bytes(img)?.to_vec();
     let mut tmp: Vec<u8> = vec![0; cur.len()];
     let mut change = LabelChange::NONE;
 
@@ -599,8 +599,7 @@ pub fn augment_into<P: Pixel<Subpixel = u8>>(
         photometric::erase_slice(&mut cur, w, h, cn, &params, &mut rng);
     }
 
-    let d: &mut [u8] = dst;
-    d.copy_from_slice(&cur);
+    geometric::bytes_mut(dst)?.copy_from_slice(&cur);
     Ok(change)
 }
 
@@ -849,6 +848,27 @@ mod tests {
         for (name, cfg) in presets() {
             assert!(cfg.validate().is_ok(), "{name}");
         }
+    }
+
+    #[test]
+    fn oversized_buffers_and_odd_sizes_are_handled() -> Result<()> {
+        // An ImageBuffer may own more bytes than its pixels need; the ops ignore the tail.
+        let long = RgbImage::from_raw(5, 3, vec![90; 100])
+            .ok_or(ImgprocError::Size("from_raw".into()))?;
+        let (out, _) = augment(&long, &everything(), 2)?;
+        assert_eq!(out.dimensions(), (5, 3));
+        let mut dst = RgbImage::from_raw(5, 3, vec![0; 60]).ok_or(ImgprocError::Size("from_raw".into()))?;
+        augment_into(&long, &AugmentConfig::shape_bias(), 2, &mut dst)?;
+        rotate_about_center(&long, &mut dst, 1.0, Border::Reflect)?;
+        gaussian_blur(&long, &mut dst, 2.0)?;
+        // One-pixel images, and a warp into an empty destination.
+        let dot = GrayImage::new(1, 1);
+        for seed in 0..4 {
+            augment(&dot, &everything(), seed)?;
+        }
+        let mut empty = RgbImage::new(0, 4);
+        warp_affine(&long, &mut empty, &Affine2::IDENTITY, Border::Black)?;
+        Ok(())
     }
 
     #[test]

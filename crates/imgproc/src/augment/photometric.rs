@@ -11,7 +11,7 @@ use std::sync::OnceLock;
 use image::{ImageBuffer, Pixel, RgbImage};
 use rand::Rng;
 
-use super::geometric::{reflect101, same_size};
+use super::geometric::{bytes, bytes_mut, reflect101, same_size};
 use crate::{ImgprocError, Result};
 
 /// An 8-bit lookup table.
@@ -92,8 +92,7 @@ fn map_lut<P: Pixel<Subpixel = u8>>(
     lut: &Lut,
 ) -> Result<()> {
     same_size(src, dst)?;
-    let d: &mut [u8] = dst;
-    for (o, &i) in d.iter_mut().zip(src.as_raw().iter()) {
+    for (o, &i) in bytes_mut(dst)?.iter_mut().zip(bytes(src)?) {
         *o = lut[usize::from(i)];
     }
     Ok(())
@@ -119,7 +118,7 @@ pub fn adjust_contrast<P: Pixel<Subpixel = u8>>(
     dst: &mut ImageBuffer<P, Vec<u8>>,
     factor: f64,
 ) -> Result<()> {
-    let mean = mapped_mean(src.as_raw(), &identity_lut());
+    let mean = mapped_mean(bytes(src)?, &identity_lut());
     map_lut(src, dst, &contrast_lut(factor, mean)?)
 }
 
@@ -193,7 +192,7 @@ pub(crate) fn apply_color_matrix(src: &[u8], dst: &mut [u8], m: &[[f32; 3]; 3]) 
 pub fn adjust_color(src: &RgbImage, dst: &mut RgbImage, saturation: f64, hue: f64) -> Result<()> {
     same_size(src, dst)?;
     let m = color_matrix(saturation, hue)?;
-    apply_color_matrix(src.as_raw(), dst, &m);
+    apply_color_matrix(bytes(src)?, bytes_mut(dst)?, &m);
     Ok(())
 }
 
@@ -275,7 +274,7 @@ pub fn add_gaussian_noise<P: Pixel<Subpixel = u8>, R: Rng + ?Sized>(
 ) -> Result<()> {
     same_size(src, dst)?;
     check_finite_nonneg("noise sigma", sigma)?;
-    add_noise_slice(src.as_raw(), dst, sigma as f32, rng);
+    add_noise_slice(bytes(src)?, bytes_mut(dst)?, sigma as f32, rng);
     Ok(())
 }
 
@@ -324,8 +323,8 @@ pub fn gaussian_blur<P: Pixel<Subpixel = u8>>(
     }
     let (w, h) = (src.width() as usize, src.height() as usize);
     blur_slice(
-        src.as_raw(),
-        dst,
+        bytes(src)?,
+        bytes_mut(dst)?,
         w,
         h,
         usize::from(P::CHANNEL_COUNT),
@@ -444,8 +443,8 @@ pub fn random_erase<P: Pixel<Subpixel = u8>, R: Rng + ?Sized>(
 ) -> Result<Vec<EraseRect>> {
     same_size(src, dst)?;
     params.validate()?;
-    let d: &mut [u8] = dst;
-    d.copy_from_slice(src.as_raw());
+    let d = bytes_mut(dst)?;
+    d.copy_from_slice(bytes(src)?);
     Ok(erase_slice(
         d,
         src.width(),

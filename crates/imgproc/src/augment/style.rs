@@ -74,7 +74,15 @@ pub fn style_randomize<P: Pixel<Subpixel = u8>, R: Rng + ?Sized>(
         )));
     }
     let (w, h) = (src.width() as usize, src.height() as usize);
-    style_slice(src.as_raw(), dst, w, h, cn, params.strength, rng);
+    style_slice(
+        super::geometric::bytes(src)?,
+        super::geometric::bytes_mut(dst)?,
+        w,
+        h,
+        cn,
+        params.strength,
+        rng,
+    );
     Ok(())
 }
 

@@ -108,12 +108,7 @@ pub(crate) fn clahe_with(
     scratch.luts.resize(t * t, [0; 256]);
     for ty in 0..t {
         for tx in 0..t {
-            let mut hist = [0u32; 256];
-            for row in hist_src.chunks_exact(ew).skip(ty * th).take(th) {
-                for &v in &row[tx * tw..(tx + 1) * tw] {
-                    hist[v as usize] += 1;
-                }
-            }
+            let mut hist = tile_histogram(hist_src, ew, (tx * tw, ty * th), (tw, th));
             clip_histogram(&mut hist, clip_limit);
             // Cumulative sum (serial), then the scaling in a separate loop that vectorises.
             let mut sum = 0u32;
@@ -129,6 +124,36 @@ pub(crate) fn clahe_with(
     }
     interpolate(src.as_raw(), dst, (w, h), (tw, th), t, scratch);
     Ok(())
+}
+
+/// 256-bin histogram of the `tw x th` tile at `(x0, y0)` of an image `stride` pixels wide.
+///
+/// Four partial histograms take the pixels in turn: flat regions would otherwise increment the
+/// same counter back to back and wait on each store.
+fn tile_histogram(
+    img: &[u8],
+    stride: usize,
+    (x0, y0): (usize, usize),
+    (tw, th): (usize, usize),
+) -> [u32; 256] {
+    let mut part = [[0u32; 256]; 4];
+    for row in img.chunks_exact(stride).skip(y0).take(th) {
+        let mut quads = row[x0..x0 + tw].chunks_exact(4);
+        for q in &mut quads {
+            part[0][q[0] as usize] += 1;
+            part[1][q[1] as usize] += 1;
+            part[2][q[2] as usize] += 1;
+            part[3][q[3] as usize] += 1;
+        }
+        for &v in quads.remainder() {
+            part[0][v as usize] += 1;
+        }
+    }
+    let mut hist = [0u32; 256];
+    for (i, h) in hist.iter_mut().enumerate() {
+        *h = part[0][i] + part[1][i] + part[2][i] + part[3][i];
+    }
+    hist
 }
 
 /// Clips at `limit` and redistributes the excess as OpenCV does.

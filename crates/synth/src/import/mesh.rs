@@ -377,10 +377,11 @@ pub(super) fn finish(mut soup: Soup, opts: &ImportOptions) -> Result<(World, Imp
         if world.lights.is_empty() {
             world.lights = walk::ceiling_lights(&world, &free);
             if !world.lights.is_empty() {
+                let n = world.lights.len();
                 soup.warn(format!(
-                    "no light sources or glowing surfaces: placed {} lights under the ceilings, \
-                     3 m apart",
-                    world.lights.len()
+                    "no light sources or glowing surfaces: placed {n} light{} under the \
+                     ceilings, 3 m apart",
+                    if n == 1 { "" } else { "s" }
                 ));
             }
         }

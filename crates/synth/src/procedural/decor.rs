@@ -187,6 +187,22 @@ impl Placer<'_> {
         true
     }
 
+    /// Sets an item into run `run` at `rect` if there is room, with a material `make` creates
+    /// then (so no material is made for an item that does not fit).
+    fn put_new(
+        &mut self,
+        world: &mut World,
+        run: usize,
+        rect: R2,
+        make: impl FnOnce(&Self, &mut World) -> MaterialId,
+    ) -> bool {
+        if !self.free(run, rect, 0.15) {
+            return false;
+        }
+        let material = make(self, world);
+        self.put(run, rect, Mount::Inset, material)
+    }
+
     /// Tries up to eight random positions along run `run` for an item `w` wide spanning
     /// `v.0..v.1`; returns the new item's index.
     fn put_random(
@@ -369,32 +385,24 @@ impl Placer<'_> {
                 if let Some((run, u0, u1)) =
                     self.run_at(op.outer, out_normal, out_line, top, s0 + 0.3, s1 - 0.3)
                 {
-                    let m = self.exit_sign(world, key);
-                    self.put(
-                        run,
-                        R2::new(u0, top + 0.15, u1, top + 0.33),
-                        Mount::Inset,
-                        m,
-                    );
+                    let rect = R2::new(u0, top + 0.15, u1, top + 0.33);
+                    self.put_new(world, run, rect, |p, w| p.exit_sign(w, key));
                 }
                 // Inside: a lamp over the door and a big storey number beside it.
                 if let Some((run, u0, u1)) =
                     self.run_at(op.inner, in_normal, in_line, top, s0 + 0.2, s1 - 0.2)
                 {
                     let rect = R2::new(u0, top + 0.35, u1, top + 0.6);
-                    if self.put(run, rect, Mount::Inset, 0) {
-                        let m = self.lamp(world, run, rect);
-                        if let Some(item) = self.out.wall.last_mut() {
-                            item.material = m;
-                        }
-                    }
+                    self.put_new(world, run, rect, |p, w| p.lamp(w, run, rect));
                 }
                 let skey = rng::hash(&[rng::text("storey sign"), building, u64::from(lv.storey)]);
                 if let Some((run, u0, u1)) =
                     self.run_at(op.inner, in_normal, in_line, 0.0, s0 - 0.75, s0 - 0.3)
                 {
-                    let m = self.content(world, Pattern::Sign, skey, Some(building));
-                    self.put(run, R2::new(u0, 1.45, u1, 1.9), Mount::Inset, m);
+                    let rect = R2::new(u0, 1.45, u1, 1.9);
+                    self.put_new(world, run, rect, |p, w| {
+                        p.content(w, Pattern::Sign, skey, Some(building))
+                    });
                 }
             }
             ZoneKind::Bridge => {
@@ -402,13 +410,10 @@ impl Placer<'_> {
                 if let Some((run, u0, u1)) =
                     self.run_at(op.outer, out_normal, out_line, top, s0 + 0.4, s1 - 0.4)
                 {
-                    let m = self.content(world, Pattern::Sign, key, Some(building));
-                    self.put(
-                        run,
-                        R2::new(u0, top + 0.08, u1, top + 0.38),
-                        Mount::Inset,
-                        m,
-                    );
+                    let rect = R2::new(u0, top + 0.08, u1, top + 0.38);
+                    self.put_new(world, run, rect, |p, w| {
+                        p.content(w, Pattern::Sign, key, Some(building))
+                    });
                 }
             }
             _ => {}

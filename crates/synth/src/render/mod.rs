@@ -218,6 +218,8 @@ pub struct FrameStats {
     pub triangles_tested: u32,
     /// Triangles that won at least one pixel when drawn.
     pub triangles_drawn: u32,
+    /// Pixels whose light was computed exactly rather than interpolated from the light grid.
+    pub lit_exactly: u32,
     /// Time spent on visibility (culling and rasterizing), nanoseconds.
     pub raster_ns: u64,
     /// Time spent on shading and finishing the image, nanoseconds.

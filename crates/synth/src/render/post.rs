@@ -33,8 +33,7 @@ pub(crate) fn finish(accum: &[[f32; 3]], subframes: usize, rgb: &mut [u8], w: us
     let (cx, cy) = ((w as f32 - 1.0) / 2.0, (h as f32 - 1.0) / 2.0);
     let r2norm = 1.0 / (cx * cx + cy * cy).max(1.0);
     let vig = sensor.vignetting.clamp(0.0, 1.0);
-    // Triangular noise of two 10-bit uniforms has σ = 1/√6 of its half-width.
-    let amp = sensor.noise.max(0.0) * 255.0 * 6f32.sqrt() / 1023.0;
+    let amp = noise_amp(sensor.noise);
     let key = mix(sensor.seed ^ 0x5851_f42d_4c95_7f2d);
     for y in 0..h {
         let dy = y as f32 - cy;
@@ -48,7 +47,7 @@ pub(crate) fn finish(accum: &[[f32; 3]], subframes: usize, rgb: &mut [u8], w: us
                 lut.encode_one(a[1] * f),
                 lut.encode_one(a[2] * f),
             ];
-            if amp > 0.0 {
+            if amp > 0 {
                 add_noise(&mut px, key, i, amp);
             }
             rgb[3 * i..3 * i + 3].copy_from_slice(&px);
@@ -56,15 +55,28 @@ pub(crate) fn finish(accum: &[[f32; 3]], subframes: usize, rgb: &mut [u8], w: us
     }
 }
 
-/// Adds the noise of pixel `i` (`amp`: bytes per unit of the triangular variate).
+/// Fixed-point scale (1/65536) of the noise variate for a standard deviation of `noise` (fraction
+/// of full scale).
+pub(crate) fn noise_amp(noise: f32) -> i32 {
+    // The variate, a sum of two uniform bytes minus 255, has σ = 255/√6.
+    let scale = noise.clamp(0.0, 1.0) * 255.0 / (255.0 / 6f32.sqrt());
+    (scale * 65536.0) as i32
+}
+
+/// Adds the noise of pixel `i` (`amp` from [`noise_amp`]): a triangular variate per channel, a
+/// close and cheap stand-in for Gaussian read noise, drawn from a hash of the frame's key and
+/// the pixel so it needs no generator state.
 #[inline(always)]
-pub(crate) fn add_noise(px: &mut [u8; 3], key: u64, i: usize, amp: f32) {
-    let hsh = mix(key.wrapping_add((i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)));
+pub(crate) fn add_noise(px: &mut [u8; 3], key: u64, i: usize, amp: i32) {
+    let mut h = (key ^ i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    h ^= h >> 32;
+    h = h.wrapping_mul(0xd6e8_feb8_6659_fd93);
+    h ^= h >> 29;
     for (k, c) in px.iter_mut().enumerate() {
-        let a = ((hsh >> (20 * k)) & 1023) as f32;
-        let b = ((hsh >> (20 * k + 10)) & 1023) as f32;
-        let v = *c as f32 + (a + b - 1023.0) * amp;
-        *c = (v + 0.5).clamp(0.0, 255.0) as u8;
+        let a = ((h >> (16 * k)) & 0xff) as i32;
+        let b = ((h >> (16 * k + 8)) & 0xff) as i32;
+        let v = *c as i32 + (((a + b - 255) * amp + 32768) >> 16);
+        *c = v.clamp(0, 255) as u8;
     }
 }
 

@@ -10,7 +10,7 @@
 
 use super::FrameStats;
 use super::lens::RasterCam;
-use super::scene::{Grid, RenderScene, SceneTri, dot32};
+use super::scene::{Grid, RenderScene, SceneTri, dot32, fmax, fmin};
 use crate::world::Triangle;
 use geom::Pose;
 
@@ -151,6 +151,16 @@ pub(crate) struct VisTri {
 }
 
 impl VisTri {
+    /// A placeholder (never shaded).
+    pub const EMPTY: VisTri = VisTri {
+        w: [0.0; 3],
+        u: [0.0; 3],
+        v: [0.0; 3],
+        n: [0.0; 3],
+        plane: 0,
+        material: 0,
+    };
+
     /// `1/z` at a raster position (the same expression the fill loop uses, so the direct path
     /// reads back exactly what the depth test compared).
     #[inline(always)]
@@ -177,10 +187,10 @@ pub(crate) struct Raster {
     tiles_w: usize,
     /// Cells in view this frame: `(distance² bits << 32) | cell`.
     cells: Vec<u64>,
-    /// Per scene triangle: the frame (or shadow ray) that last touched it.
-    pub stamps: Vec<u32>,
-    /// The current stamp.
-    pub stamp: u32,
+    /// The grid's cell edges along world x, y, z, in camera coordinates.
+    cell_axes: [[f32; 3]; 3],
+    /// Marks of triangles already visited this frame (or on this shadow ray).
+    pub stamps: Stamps,
     /// The scene the stamps belong to.
     scene_id: u64,
     /// This frame's extra triangles, prepared.
@@ -189,23 +199,36 @@ pub(crate) struct Raster {
     pub stats: FrameStats,
 }
 
-impl Raster {
-    /// A fresh stamp (resetting the stamps when the counter wraps).
-    pub fn next_stamp(&mut self) -> u32 {
+/// Per scene triangle, the number of the last pass (frame or shadow ray) that visited it, so a
+/// triangle listed in several grid cells is handled once per pass.
+#[derive(Debug, Default)]
+pub(crate) struct Stamps {
+    /// Per triangle.
+    pub marks: Vec<u32>,
+    /// The current pass.
+    pub stamp: u32,
+}
+
+impl Stamps {
+    /// Starts a new pass (clearing the marks when the counter wraps).
+    pub fn next(&mut self) -> u32 {
         self.stamp = self.stamp.wrapping_add(1);
         if self.stamp == 0 {
-            self.stamps.fill(0);
+            self.marks.fill(0);
             self.stamp = 1;
         }
         self.stamp
     }
+}
+
+impl Raster {
 
     /// Sizes the buffers for a scene and a raster.
     fn prepare(&mut self, scene: &RenderScene, cam: RasterCam) {
-        if self.scene_id != scene.id || self.stamps.len() != scene.tris.len() {
-            self.stamps.clear();
-            self.stamps.resize(scene.tris.len(), 0);
-            self.stamp = 0;
+        if self.scene_id != scene.id || self.stamps.marks.len() != scene.tris.len() {
+            self.stamps.marks.clear();
+            self.stamps.marks.resize(scene.tris.len(), 0);
+            self.stamps.stamp = 0;
             self.scene_id = scene.id;
         }
         let n = cam.w * cam.h;
@@ -242,7 +265,13 @@ impl Raster {
         }
         self.extra = prepared;
 
-        let stamp = self.next_stamp();
+        let stamp = self.stamps.next();
+        let g = scene.grid.cell;
+        self.cell_axes = [
+            view.rotate([g, 0.0, 0.0]),
+            view.rotate([0.0, g, 0.0]),
+            view.rotate([0.0, 0.0, g]),
+        ];
         self.collect_cells(&scene.grid, view);
         let cells = std::mem::take(&mut self.cells);
         for &key in &cells {
@@ -252,7 +281,7 @@ impl Raster {
                 continue;
             }
             for &ti in scene.grid.items(cell) {
-                let slot = &mut self.stamps[ti as usize];
+                let slot = &mut self.stamps.marks[ti as usize];
                 if *slot == stamp {
                     continue;
                 }
@@ -287,22 +316,41 @@ impl Raster {
             return;
         }
         let (a, b) = grid.range(lo, hi);
+        // A plane's value at a cell's most positive corner is affine in the cell's indices, so
+        // along a row of cells each plane keeps an interval of x; the frustum keeps their
+        // intersection (convex), found with six divisions per row instead of a test per cell.
+        let g = grid.cell;
         for z in a[2]..=b[2] {
             for y in a[1]..=b[1] {
+                let (mut xa, mut xb) = (a[0] as f32, b[0] as f32);
+                for p in &view.planes {
+                    // Value at the corner of cell (0, y, z) that is most positive along p.
+                    let corner = [0.0, y as f32, z as f32];
+                    let mut c = p[3];
+                    for k in 0..3 {
+                        let off = if p[k] >= 0.0 { 1.0 } else { 0.0 };
+                        c += p[k] * (grid.lo[k] + (corner[k] + off) * g);
+                    }
+                    let slope = p[0] * g;
+                    // Keep x with c + slope·x ≥ 0, widened by a cell against rounding.
+                    if slope > 1e-9 {
+                        xa = xa.max((-c / slope).floor() - 1.0);
+                    } else if slope < -1e-9 {
+                        xb = xb.min((-c / slope).ceil() + 1.0);
+                    } else if c < 0.0 {
+                        xb = -1.0;
+                    }
+                }
+                if !(xa <= xb) {
+                    continue;
+                }
                 let row = grid.index([0, y, z]);
-                for x in a[0]..=b[0] {
+                for x in xa.max(a[0] as f32) as usize..=xb.min(b[0] as f32) as usize {
                     let cell = row + x;
                     if grid.is_empty(cell) {
                         continue;
                     }
                     let (blo, bhi) = grid.cell_box(cell);
-                    let outside = view.planes.iter().any(|p| {
-                        let q = [0, 1, 2].map(|k| if p[k] >= 0.0 { bhi[k] } else { blo[k] });
-                        p[0] * q[0] + p[1] * q[1] + p[2] * q[2] + p[3] < 0.0
-                    });
-                    if outside {
-                        continue;
-                    }
                     let d2: f32 = (0..3)
                         .map(|k| {
                             let d = (blo[k] - view.c[k]).max(view.c[k] - bhi[k]).max(0.0);
@@ -317,30 +365,33 @@ impl Raster {
         self.stats.cells_in_view = self.cells.len() as u32;
     }
 
-    /// False when the cell's box lies behind what is already drawn everywhere it projects.
+    /// False when the cell's box lies behind what is already drawn everywhere it projects. The
+    /// corners' camera coordinates are one transform plus steps along the rotated cell edges.
     fn cell_visible(&mut self, grid: &Grid, cell: usize, view: &View) -> bool {
-        let (lo, hi) = grid.cell_box(cell);
+        let (lo, _) = grid.cell_box(cell);
         let cam = view.cam;
+        let q0 = view.to_cam(lo);
+        let [ex, ey, ez] = self.cell_axes;
         let (mut x0, mut x1, mut y0, mut y1) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
         let mut zmin = f32::MAX;
         for corner in 0..8 {
-            let p = [
-                if corner & 1 == 0 { lo[0] } else { hi[0] },
-                if corner & 2 == 0 { lo[1] } else { hi[1] },
-                if corner & 4 == 0 { lo[2] } else { hi[2] },
-            ];
-            let q = view.to_cam(p);
+            let (a, b, c) = (
+                (corner & 1) as f32,
+                ((corner >> 1) & 1) as f32,
+                ((corner >> 2) & 1) as f32,
+            );
+            let q: [f32; 3] = std::array::from_fn(|k| q0[k] + a * ex[k] + b * ey[k] + c * ez[k]);
             if !(q[2] > NEAR) {
                 return true;
             }
             let iz = 1.0 / q[2];
             let x = cam.fx * q[0] * iz + cam.cx;
             let y = cam.fy * q[1] * iz + cam.cy;
-            x0 = x0.min(x);
-            x1 = x1.max(x);
-            y0 = y0.min(y);
-            y1 = y1.max(y);
-            zmin = zmin.min(q[2]);
+            x0 = fmin(x0, x);
+            x1 = fmax(x1, x);
+            y0 = fmin(y0, y);
+            y1 = fmax(y1, y);
+            zmin = fmin(zmin, q[2]);
         }
         !self.rect_hidden([x0, x1, y0, y1], zmin)
     }
@@ -356,14 +407,18 @@ impl Raster {
         if !(x1 >= 0.0 && y1 >= 0.0 && x0 <= wl && y0 <= hl) {
             return true;
         }
-        let tx0 = (x0.max(0.0).floor() as usize) / HIZ;
-        let tx1 = (x1.min(wl).ceil() as usize) / HIZ;
-        let ty0 = (y0.max(0.0).floor() as usize) / HIZ;
-        let ty1 = (y1.min(hl).ceil() as usize) / HIZ;
+        // Truncation is floor here (non-negative); one pixel more stands in for ceil.
+        let tx0 = fmax(x0, 0.0) as usize / HIZ;
+        let tx1 = (fmin(x1, wl) as usize + 1).min(cam.w - 1) / HIZ;
+        let ty0 = fmax(y0, 0.0) as usize / HIZ;
+        let ty1 = (fmin(y1, hl) as usize + 1).min(cam.h - 1) / HIZ;
         let wnear = 1.0 / zmin;
         for ty in ty0..=ty1 {
             for tx in tx0..=tx1 {
-                if wnear >= self.hiz_at(tx, ty) {
+                // A stale value is at most the true one (pixels only come nearer), so it may
+                // prove the tile hidden as it is; refresh it only when it cannot.
+                let t = ty * self.tiles_w + tx;
+                if wnear >= self.hiz[t] && (!self.hiz_dirty[t] || wnear >= self.hiz_at(tx, ty)) {
                     return false;
                 }
             }
@@ -380,7 +435,7 @@ impl Raster {
             for y in ty * HIZ..((ty + 1) * HIZ).min(cam.1) {
                 let row = &self.zbuf[y * cam.0 + tx * HIZ..y * cam.0 + ((tx + 1) * HIZ).min(cam.0)];
                 for &w in row {
-                    m = m.min(w);
+                    m = fmin(m, w);
                 }
             }
             self.hiz[t] = m;
@@ -393,85 +448,52 @@ impl Raster {
     fn draw_tri(&mut self, t: &SceneTri, view: &View) {
         self.stats.triangles_tested += 1;
         let p = t.v.map(|q| view.to_cam(q));
-        if p.iter().all(|q| q[2] < NEAR) || p.iter().all(|q| q[2] > view.far) {
+        let behind = [p[0][2] < NEAR, p[1][2] < NEAR, p[2][2] < NEAR];
+        if behind[0] && behind[1] && behind[2] {
+            return;
+        }
+        if p[0][2] > view.far && p[1][2] > view.far && p[2][2] > view.far {
             return;
         }
         for s in &view.side {
-            if p.iter().all(|q| dot32(*s, *q) < 0.0) {
+            if dot32(*s, p[0]) < 0.0 && dot32(*s, p[1]) < 0.0 && dot32(*s, p[2]) < 0.0 {
                 return;
             }
         }
-        // The triangle's plane in camera space: nc · q = dc.
-        let nc = view.rotate(t.n);
+        // The triangle's plane in camera space is nc · q = dc; the camera (q = 0) sees the
+        // front face when it lies on the normal's side: 0 > dc.
         let dc = t.d - dot32(t.n, view.c);
         // Edge-on (the plane passes through the eye) or not finite: covers nothing.
         if !(dc.abs() > 1e-7) {
             return;
         }
-        // The camera sees the front face when it lies on the normal's side: nc · 0 > dc.
         let front = dc < 0.0;
         if t.cull && !front {
             return;
         }
-        let cam = view.cam;
-        let inv = 1.0 / dc;
-        let w = [
-            nc[0] / cam.fx * inv,
-            nc[1] / cam.fy * inv,
-            (nc[2] - nc[0] * cam.cx / cam.fx - nc[1] * cam.cy / cam.fy) * inv,
-        ];
-        // u = g · q + h in camera space; u/z = g · ray + h · (1/z).
-        let uvplane = |g: [f32; 4]| -> [f32; 3] {
-            let gc = view.rotate([g[0], g[1], g[2]]);
-            let h = g[3] + dot32([g[0], g[1], g[2]], view.c);
-            [
-                gc[0] / cam.fx + h * w[0],
-                gc[1] / cam.fy + h * w[1],
-                gc[2] - gc[0] * cam.cx / cam.fx - gc[1] * cam.cy / cam.fy + h * w[2],
-            ]
-        };
-        let n = if front { t.n } else { t.n.map(|c| -c) };
-        let id = self.vis.len() as u32;
-        self.vis.push(VisTri {
-            w,
-            u: uvplane(t.gu),
-            v: uvplane(t.gv),
-            n,
-            plane: t.plane,
-            material: t.material,
-        });
-        if self.clip_and_fill(p, id, w, view) {
-            self.stats.triangles_drawn += 1;
-        } else {
-            self.vis.pop();
-        }
-    }
-
-    /// Clips a camera-space triangle and fills the pieces; true when a pixel was written.
-    fn clip_and_fill(&mut self, p: [[f32; 3]; 3], id: u32, w: [f32; 3], view: &View) -> bool {
+        // Clip (rarely needed) and project.
         let cam = view.cam;
         let mut a = [[0.0f32; 3]; 9];
         let mut b = [[0.0f32; 3]; 9];
         a[..3].copy_from_slice(&p);
         let mut n = 3;
-        if p.iter().any(|q| q[2] < NEAR) {
+        if behind[0] || behind[1] || behind[2] {
             n = clip(&a[..n], &mut b, |q| q[2] - NEAR);
             a = b;
-        }
-        if n < 3 {
-            return false;
+            if n < 3 {
+                return;
+            }
         }
         let (lx, hx) = (-GUARD, cam.w as f32 + GUARD);
         let (ly, hy) = (-GUARD, cam.h as f32 + GUARD);
-        let project = |q: &[f32; 3]| {
+        let mut xy = [(0.0f32, 0.0f32); 9];
+        let mut inside_band = true;
+        for (o, q) in xy.iter_mut().zip(&a[..n]) {
             let iz = 1.0 / q[2];
-            (cam.fx * q[0] * iz + cam.cx, cam.fy * q[1] * iz + cam.cy)
-        };
-        let out_of_band = a[..n].iter().any(|q| {
-            let (x, y) = project(q);
-            !(x >= lx && x <= hx && y >= ly && y <= hy)
-        });
-        if out_of_band {
+            *o = (cam.fx * q[0] * iz + cam.cx, cam.fy * q[1] * iz + cam.cy);
+            inside_band &= o.0 >= lx && o.0 <= hx && o.1 >= ly && o.1 <= hy;
+        }
+        if !inside_band {
             // x ≥ lx  ⇔  fx·X + (cx − lx)·Z ≥ 0, and so on for the other three sides.
             let planes = [
                 [cam.fx, 0.0, cam.cx - lx],
@@ -483,34 +505,67 @@ impl Raster {
                 n = clip(&a[..n], &mut b, |q| dot32(pl, *q));
                 a = b;
                 if n < 3 {
-                    return false;
+                    return;
                 }
             }
+            for (o, q) in xy.iter_mut().zip(&a[..n]) {
+                let iz = 1.0 / q[2];
+                *o = (cam.fx * q[0] * iz + cam.cx, cam.fy * q[1] * iz + cam.cy);
+            }
         }
-        let mut fx = [(0i64, 0i64); 9];
         let mut rect = [f32::MAX, f32::MIN, f32::MAX, f32::MIN];
         let mut zmin = f32::MAX;
-        for (f, q) in fx.iter_mut().zip(&a[..n]) {
-            let (x, y) = project(q);
+        for (&(x, y), q) in xy[..n].iter().zip(&a[..n]) {
             if !(x.is_finite() && y.is_finite()) {
-                return false;
+                return;
             }
-            rect = [rect[0].min(x), rect[1].max(x), rect[2].min(y), rect[3].max(y)];
-            zmin = zmin.min(q[2]);
-            *f = (
-                (x * SUB as f32).round() as i64,
-                (y * SUB as f32).round() as i64,
-            );
+            rect = [fmin(rect[0], x), fmax(rect[1], x), fmin(rect[2], y), fmax(rect[3], y)];
+            zmin = fmin(zmin, q[2]);
         }
-        // Hidden behind what is drawn already (most triangles of cells that are partly visible).
+        // Hidden behind what is drawn already (most triangles of partly visible cells).
         if self.rect_hidden(rect, zmin) {
-            return false;
+            return;
         }
+        let nc = view.rotate(t.n);
+        let inv = 1.0 / dc;
+        let w = [
+            nc[0] / cam.fx * inv,
+            nc[1] / cam.fy * inv,
+            (nc[2] - nc[0] * cam.cx / cam.fx - nc[1] * cam.cy / cam.fy) * inv,
+        ];
+        let id = self.vis.len() as u32;
         let mut wrote = false;
+        // Round half away from zero (by truncation: `round` is a library call on baseline x86).
+        let half = |v: f32| if v >= 0.0 { v + 0.5 } else { v - 0.5 };
+        let snap = |(x, y): (f32, f32)| {
+            (half(x * SUB as f32) as i64, half(y * SUB as f32) as i64)
+        };
+        let v0 = snap(xy[0]);
         for i in 1..n - 1 {
-            wrote |= self.fill(fx[0], fx[i], fx[i + 1], id, w);
+            wrote |= self.fill(v0, snap(xy[i]), snap(xy[i + 1]), id, w);
         }
-        wrote
+        if !wrote {
+            return;
+        }
+        self.stats.triangles_drawn += 1;
+        // u = g · q + h in camera space; u/z = g · ray + h · (1/z).
+        let uvplane = |g: [f32; 4]| -> [f32; 3] {
+            let gc = view.rotate([g[0], g[1], g[2]]);
+            let h = g[3] + dot32([g[0], g[1], g[2]], view.c);
+            [
+                gc[0] / cam.fx + h * w[0],
+                gc[1] / cam.fy + h * w[1],
+                gc[2] - gc[0] * cam.cx / cam.fx - gc[1] * cam.cy / cam.fy + h * w[2],
+            ]
+        };
+        self.vis.push(VisTri {
+            w,
+            u: uvplane(t.gu),
+            v: uvplane(t.gv),
+            n: if front { t.n } else { t.n.map(|c| -c) },
+            plane: t.plane,
+            material: t.material,
+        });
     }
 
     /// Fills a snapped triangle: depth test against `1/z` from the plane `w`, top-left rule.
@@ -552,28 +607,47 @@ impl Raster {
         let (mut r2, sx2, sy2) = edge(c, a);
         let width = cam.w;
         let mut wrote = false;
+        // Wide triangles: find each row's span from the edge functions (a float estimate made
+        // exact with the integer test) instead of scanning the bounding box from its left.
+        let wide = x1 - x0 > 8;
+        let kmax = x1 - x0;
+        let inv = [sx0, sx1, sx2].map(|s| if s != 0 { 1.0 / s as f64 } else { 0.0 });
         for y in y0..=y1 {
-            let (mut e0, mut e1, mut e2) = (r0, r1, r2);
             let row = y as usize * width;
             let wrow = w[1] * y as f32 + w[2];
-            let mut seen = false;
-            for x in x0..=x1 {
-                if (e0 | e1 | e2) >= 0 {
-                    seen = true;
-                    let i = row + x as usize;
-                    let wv = w[0] * x as f32 + wrow;
-                    if wv > self.zbuf[i] {
-                        self.zbuf[i] = wv;
-                        self.ids[i] = id;
-                        wrote = true;
-                    }
-                } else if seen {
-                    // Convex: the span of this row is over.
-                    break;
+            let (mut k0, mut k1) = (0, kmax);
+            if wide {
+                for ((r, s), inv) in [r0, r1, r2].into_iter().zip([sx0, sx1, sx2]).zip(inv) {
+                    let (a, b) = edge_span(r, s, kmax, inv);
+                    k0 = k0.max(a);
+                    k1 = k1.min(b);
                 }
-                e0 += sx0;
-                e1 += sx1;
-                e2 += sx2;
+            }
+            if k0 <= k1 {
+                let (mut e0, mut e1, mut e2) = (r0 + sx0 * k0, r1 + sx1 * k0, r2 + sx2 * k0);
+                let span = row + (x0 + k0) as usize..=row + (x0 + k1) as usize;
+                let mut seen = false;
+                for ((z, idx), x) in self.zbuf[span.clone()]
+                    .iter_mut()
+                    .zip(&mut self.ids[span])
+                    .zip(x0 + k0..)
+                {
+                    if (e0 | e1 | e2) >= 0 {
+                        seen = true;
+                        let wv = w[0] * x as f32 + wrow;
+                        if wv > *z {
+                            *z = wv;
+                            *idx = id;
+                            wrote = true;
+                        }
+                    } else if seen {
+                        // Convex: the span of this row is over.
+                        break;
+                    }
+                    e0 += sx0;
+                    e1 += sx1;
+                    e2 += sx2;
+                }
             }
             r0 += sy0;
             r1 += sy1;
@@ -586,6 +660,45 @@ impl Raster {
             }
         }
         wrote
+    }
+}
+
+/// The pixels `k ∈ [a, b] ⊆ [0, kmax]` of a row where the edge function `r + s·k` is ≥ 0
+/// (`inv = 1/s`); empty when `a > b`. The float estimate of the crossing is off by less than one,
+/// and the integer test then makes it exact.
+#[inline(always)]
+fn edge_span(r: i64, s: i64, kmax: i64, inv: f64) -> (i64, i64) {
+    let inside = |k: i64| r + s * k >= 0;
+    if s > 0 {
+        if r >= 0 {
+            return (0, kmax);
+        }
+        let est = (-(r as f64) * inv).clamp(0.0, (kmax + 1) as f64) as i64;
+        let mut k = est;
+        while k <= kmax && !inside(k) {
+            k += 1;
+        }
+        while k > 0 && inside(k - 1) {
+            k -= 1;
+        }
+        (k, kmax)
+    } else if s < 0 {
+        if r < 0 {
+            return (1, 0);
+        }
+        let est = ((r as f64) * -inv).clamp(-1.0, kmax as f64) as i64;
+        let mut k = est;
+        while k >= 0 && !inside(k) {
+            k -= 1;
+        }
+        while k < kmax && inside(k + 1) {
+            k += 1;
+        }
+        (0, k)
+    } else if r >= 0 {
+        (0, kmax)
+    } else {
+        (1, 0)
     }
 }
 

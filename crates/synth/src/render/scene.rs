@@ -2,6 +2,7 @@
 //! planes and texture gradients, baked and mip-mapped textures, switched-on lights, and a uniform
 //! grid of triangles for frustum and occlusion culling and for shadow rays.
 
+use super::raster::Stamps;
 use super::texture::{self, Texture};
 use crate::error::{Result, SynthError};
 use crate::world::{Material, Pattern, Triangle, World};
@@ -191,14 +192,22 @@ impl Mips {
         let last = self.levels.len() - 1;
         let lvl = (((e + 1) >> 1).max(0) as usize).min(last);
         let l = &self.levels[lvl];
+        if e >= 0 || lvl == last {
+            // Minified (a pixel covers a texel or more of level 0): the mip level already
+            // averages what the pixel covers, so its nearest texel is enough.
+            let xi = floor_i32(u * l.su) & l.wmask;
+            let yi = floor_i32(v * l.sv) & l.hmask;
+            return l.texels[((yi << l.wshift) | xi) as usize];
+        }
+        // Magnified: bilinear, so texels near the camera do not show as blocks.
         let x = u * l.su - 0.5;
         let y = v * l.sv - 0.5;
-        let xf = x.floor();
-        let yf = y.floor();
-        let fx = ((x - xf) * 256.0) as u32;
-        let fy = ((y - yf) * 256.0) as u32;
-        let ix0 = (xf as i32) & l.wmask;
-        let iy0 = (yf as i32) & l.hmask;
+        let (xi, yi) = (floor_i32(x), floor_i32(y));
+        // Fractions in 1/256 (the `as i32` conversions are single instructions, unlike floor).
+        let fx = ((x - xi as f32) * 256.0) as i32 as u32 & 0xff;
+        let fy = ((y - yi as f32) * 256.0) as i32 as u32 & 0xff;
+        let ix0 = xi & l.wmask;
+        let iy0 = yi & l.hmask;
         let ix1 = (ix0 + 1) & l.wmask;
         let iy1 = (iy0 + 1) & l.hmask;
         let r0 = (iy0 << l.wshift) as usize;
@@ -208,6 +217,27 @@ impl Mips {
         let (c01, c11) = (t[r1 + ix0 as usize], t[r1 + ix1 as usize]);
         lerp_packed(lerp_packed(c00, c10, fx), lerp_packed(c01, c11, fx), fy)
     }
+}
+
+/// `min` as one instruction (`f32::min` also orders NaN, which costs several); returns `a` when
+/// `b` is NaN.
+#[inline(always)]
+pub(crate) fn fmin(a: f32, b: f32) -> f32 {
+    if b < a { b } else { a }
+}
+
+/// `max` as one instruction; returns `a` when `b` is NaN.
+#[inline(always)]
+pub(crate) fn fmax(a: f32, b: f32) -> f32 {
+    if b > a { b } else { a }
+}
+
+/// `floor` by truncation (saturating for huge values; `f32::floor` is a library call on baseline
+/// x86-64).
+#[inline(always)]
+pub(crate) fn floor_i32(x: f32) -> i32 {
+    let i = x as i32;
+    i.wrapping_sub(((i as f32) > x) as i32)
 }
 
 /// Linear interpolation of two packed sRGB texels, `f` in 0–256 (two channels at once in the
@@ -271,8 +301,9 @@ fn resample(src: &[[f32; 3]], w: usize, h: usize, nw: usize, nh: usize) -> Vec<[
 pub(crate) struct Luts {
     /// sRGB byte → linear 0–1.
     pub to_linear: [f32; 256],
-    /// Linear 0–[`Luts::ENCODE_MAX`] in [`Luts::ENCODE_STEPS`] steps → tone-mapped sRGB byte.
-    pub encode: Vec<u8>,
+    /// Linear 0–[`Luts::ENCODE_MAX`] in [`Luts::ENCODE_STEPS`] steps → tone-mapped sRGB byte
+    /// (an array, so clamped indices need no bounds check).
+    pub encode: Box<[u8; Luts::ENCODE_STEPS]>,
 }
 
 impl Luts {
@@ -285,9 +316,9 @@ impl Luts {
     #[inline(always)]
     pub fn encode_one(&self, x: f32) -> u8 {
         let scale = Self::ENCODE_STEPS as f32 / Self::ENCODE_MAX;
-        // `as usize` saturates NaN and negatives to 0.
-        let i = ((x * scale) as usize).min(Self::ENCODE_STEPS - 1);
-        self.encode[i]
+        // `as i32` saturates (NaN → 0) in one instruction.
+        let i = ((x * scale) as i32).clamp(0, Self::ENCODE_STEPS as i32 - 1);
+        self.encode[i as usize]
     }
 
     /// [`Luts::encode_one`] per channel.
@@ -321,9 +352,10 @@ pub(crate) fn luts() -> &'static Luts {
         for (i, v) in to_linear.iter_mut().enumerate() {
             *v = srgb_to_linear(i as f32 / 255.0);
         }
-        let encode = (0..Luts::ENCODE_STEPS)
-            .map(|i| tone_srgb((i as f32 + 0.5) * Luts::ENCODE_MAX / Luts::ENCODE_STEPS as f32))
-            .collect();
+        let mut encode = Box::new([0u8; Luts::ENCODE_STEPS]);
+        for (i, e) in encode.iter_mut().enumerate() {
+            *e = tone_srgb((i as f32 + 0.5) * Luts::ENCODE_MAX / Luts::ENCODE_STEPS as f32);
+        }
         Luts { to_linear, encode }
     })
 }
@@ -698,14 +730,14 @@ impl RenderScene {
 
     /// True when the segment `from → to` hits a triangle of the scene (fixtures — emissive
     /// materials — excepted, so a lamp does not shadow itself). Walks the grid with a 3-D DDA;
-    /// `stamps`/`stamp` mark triangles already tested on this ray.
+    /// `stamps` marks triangles already tested on this ray.
     pub(crate) fn occluded(
         &self,
         from: [f32; 3],
         to: [f32; 3],
-        stamps: &mut [u32],
-        stamp: u32,
+        stamps: &mut Stamps,
     ) -> bool {
+        let stamp = stamps.next();
         let g = &self.grid;
         let dir = sub32(to, from);
         let len = dot32(dir, dir).sqrt();
@@ -753,7 +785,7 @@ impl RenderScene {
         let max_steps = g.dims.iter().sum::<usize>() + 3;
         for _ in 0..max_steps {
             for &ti in g.items(g.index(c)) {
-                let slot = &mut stamps[ti as usize];
+                let slot = &mut stamps.marks[ti as usize];
                 if *slot == stamp {
                     continue;
                 }

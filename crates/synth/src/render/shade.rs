@@ -5,17 +5,17 @@
 //! range limit ([`RANGE`]); each 16x16 tile of the image takes the ≤ 8 lights nearest to what it
 //! shows, from the lights of the camera's storey that can reach the view. Light varies slowly
 //! over a surface, so it is evaluated exactly on a grid of every fourth pixel and interpolated in
-//! between wherever the pixel and its four grid neighbours see the same triangle (elsewhere —
-//! along edges — it is evaluated per pixel); interpolating across tiles also hides the seams
-//! that per-tile light lists would leave. Without shadows, light passes through walls (a lamp in
+//! between from the grid nodes that see the same surface (the same dominant plane, or the same
+//! triangle off the planes); a pixel with no such node near it is lit exactly. Interpolating
+//! across tiles also hides the seams that per-tile light lists would leave. Without shadows, light passes through walls (a lamp in
 //! the next room brightens this side of the floor a little); with `shadows`, every light is
 //! tested with a ray through the scene's grid.
 
 use super::RenderMode;
 use super::lens::Lens;
 use super::post::Sensor;
-use super::raster::{NONE, Raster, View, VisTri};
-use super::scene::{RenderScene, dot32, luts};
+use super::raster::{NONE, Raster, Stamps, View, VisTri};
+use super::scene::{RenderScene, dot32, fmax, luts};
 
 /// Tile side for light lists, pixels.
 const TILE: usize = 16;
@@ -89,8 +89,11 @@ pub(crate) struct Shade {
     nodes: [usize; 2],
     /// Irradiance at each node.
     node_e: Vec<f32>,
-    /// Triangle seen at each node.
+    /// What each node sees: its dominant plane, or its triangle where it has none (see
+    /// [`light_key`]).
     node_id: Vec<u32>,
+    /// Radiance of the row being shaded.
+    row: Vec<[f32; 3]>,
     width: usize,
     height: usize,
 }
@@ -258,11 +261,23 @@ impl Shade {
         }
     }
 
-    /// Direct irradiance at output pixel `(x, y)` on triangle `t`.
+    /// Direct irradiance at output pixel `(x, y)` (which sees a triangle); `stamps` is for
+    /// shadow rays, when `shadows`.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn irradiance_at(&self, scene: &RenderScene, raster: &mut Raster, lens: &Lens, view: &View, x: usize, y: usize, shadows: bool) -> f32 {
+    fn irradiance_at(
+        &self,
+        scene: &RenderScene,
+        vis: &[VisTri],
+        stamps: &mut Stamps,
+        lens: &Lens,
+        view: &View,
+        x: usize,
+        y: usize,
+        shadows: bool,
+    ) -> f32 {
         let i = y * self.width + x;
-        let t = &raster.vis[self.vis[i] as usize];
+        let t = &vis[self.vis[i] as usize];
         let n = t.n;
         let (sx, sy) = Self::sample_pos(lens, i, x, y);
         let p = view.point(sx, sy, 1.0 / self.w[i]);
@@ -270,7 +285,7 @@ impl Shade {
         if tl.n == 0 {
             0.0
         } else if shadows {
-            shadowed(scene, raster, tl, p, n)
+            shadowed(scene, stamps, tl, p, n)
         } else if tl.n <= 4 {
             direct4(tl, p, n)
         } else {
@@ -291,6 +306,9 @@ impl Shade {
         sink: Sink<'_>,
     ) {
         let (w, h) = (self.width, self.height);
+        let vis = &raster.vis;
+        let stamps = &mut raster.stamps;
+        let mut exact = 0u32;
         // Light on the grid of every STEP-th pixel.
         let [nx, ny] = self.nodes;
         for j in 0..ny {
@@ -298,13 +316,14 @@ impl Shade {
             for k in 0..nx {
                 let x = (k * STEP).min(w - 1);
                 let id = self.vis[y * w + x];
-                let e = if id == NONE {
-                    0.0
+                let (e, key) = if id == NONE {
+                    (0.0, NONE)
                 } else {
-                    self.irradiance_at(scene, raster, lens, view, x, y, shadows)
+                    let e = self.irradiance_at(scene, vis, stamps, lens, view, x, y, shadows);
+                    (e, light_key(&vis[id as usize], id))
                 };
                 self.node_e[j * nx + k] = e;
-                self.node_id[j * nx + k] = id;
+                self.node_id[j * nx + k] = key;
             }
         }
         let lut = luts();
@@ -315,12 +334,14 @@ impl Shade {
         };
         let textured = mode != RenderMode::Shaded;
         let cam = view.cam;
-        // Sensor model, when writing bytes.
-        let (mut bytes, mut accum, sensor) = match sink {
-            Sink::Bytes(b, s) => (Some(b), None, s),
-            Sink::Accum(a, first) => (
-                None,
-                Some((a, first)),
+        let direct = lens.map.is_empty();
+        let mats = &scene.materials;
+        let mut row_rad = std::mem::take(&mut self.row);
+        row_rad.resize(w, [0.0; 3]);
+        let (mut sink, sensor) = match sink {
+            Sink::Bytes(b, s) => (Sink::Bytes(b, s), s),
+            other => (
+                other,
                 Sensor {
                     noise: 0.0,
                     vignetting: 0.0,
@@ -330,104 +351,169 @@ impl Shade {
         };
         let (vcx, vcy) = ((w as f32 - 1.0) / 2.0, (h as f32 - 1.0) / 2.0);
         let vig = sensor.vignetting.clamp(0.0, 1.0) / (vcx * vcx + vcy * vcy).max(1.0);
-        // Triangular noise of two 10-bit uniforms has σ = 1/√6 of its half-width.
-        let amp = sensor.noise.max(0.0) * 255.0 * 6f32.sqrt() / 1023.0;
-        let key = super::post::mix(sensor.seed ^ 0x5851_f42d_4c95_7f2d);
+        let amp = super::post::noise_amp(sensor.noise);
+        let noise_key = super::post::mix(sensor.seed ^ 0x5851_f42d_4c95_7f2d);
+        // The triangle of the previous pixel, and what it implies (runs of pixels share one).
+        let mut cur = NONE;
+        let mut t = &VisTri::EMPTY;
+        let mut m = &mats[0];
+        let mut key = NONE;
         for y in 0..h {
-            let j0 = y >> STEP_BITS;
+            let (j0, fy) = grid_pos(y, h);
             let j1 = (j0 + 1).min(ny - 1);
-            let (ya, yb) = (j0 * STEP, (j1 * STEP).min(h - 1));
-            let fy = if yb > ya { (y - ya) as f32 / (yb - ya) as f32 } else { 0.0 };
-            let dy2 = (y as f32 - vcy) * (y as f32 - vcy);
-            for x in 0..w {
-                let i = y * w + x;
-                let id = self.vis[i];
-                let rad = if id == NONE {
-                    background
+            let row = y * w;
+            let vis_row = &self.vis[row..row + w];
+            let w_row = &self.w[row..row + w];
+            let (id0, id1) = (&self.node_id[j0 * nx..][..nx], &self.node_id[j1 * nx..][..nx]);
+            let (e0, e1) = (&self.node_e[j0 * nx..][..nx], &self.node_e[j1 * nx..][..nx]);
+            for (x, ((&id, &wv), out)) in vis_row.iter().zip(w_row).zip(row_rad.iter_mut()).enumerate() {
+                if id == NONE {
+                    *out = background;
+                    continue;
+                }
+                if id != cur {
+                    cur = id;
+                    t = &vis[id as usize];
+                    m = &mats[t.material as usize];
+                    key = light_key(t, id);
+                }
+                let z = 1.0 / wv;
+                let (sx, sy) = if direct {
+                    (x as f32, y as f32)
                 } else {
-                    let t: VisTri = raster.vis[id as usize];
-                    let m = &scene.materials[t.material as usize];
-                    let wv = self.w[i];
-                    let z = 1.0 / wv;
-                    let (sx, sy) = Self::sample_pos(lens, i, x, y);
-                    // Light: interpolated on the grid when its four nodes see this triangle.
-                    let k0 = x >> STEP_BITS;
-                    let k1 = (k0 + 1).min(nx - 1);
-                    let (n00, n10) = (j0 * nx + k0, j0 * nx + k1);
-                    let (n01, n11) = (j1 * nx + k0, j1 * nx + k1);
-                    let ids = &self.node_id;
-                    let e = if ids[n00] == id && ids[n10] == id && ids[n01] == id && ids[n11] == id {
-                        let (xa, xb) = (k0 * STEP, (k1 * STEP).min(w - 1));
-                        let fx = if xb > xa { (x - xa) as f32 / (xb - xa) as f32 } else { 0.0 };
-                        let ne = &self.node_e;
-                        let top = ne[n00] + (ne[n10] - ne[n00]) * fx;
-                        let bot = ne[n01] + (ne[n11] - ne[n01]) * fx;
-                        top + (bot - top) * fy
-                    } else {
-                        self.irradiance_at(scene, raster, lens, view, x, y, shadows)
-                    };
-                    let albedo = if textured {
-                        let u = (t.u[0] * sx + (t.u[1] * sy + t.u[2])) * z;
-                        let v = (t.v[0] * sx + (t.v[1] * sy + t.v[2])) * z;
-                        // Screen derivatives of u and v: du/dx = z·(d(u/z)/dx − u·d(1/z)/dx).
-                        let dudx = t.u[0] - u * t.w[0];
-                        let dudy = t.u[1] - u * t.w[1];
-                        let dvdx = t.v[0] - v * t.w[0];
-                        let dvdy = t.v[1] - v * t.w[1];
-                        let rx = dudx * dudx * m.mips.su2 + dvdx * dvdx * m.mips.sv2;
-                        let ry = dudy * dudy * m.mips.su2 + dvdy * dvdy * m.mips.sv2;
-                        let c = m.mips.sample(u, v, rx.max(ry) * (z * z));
-                        [
-                            lut.to_linear[(c & 0xff) as usize],
-                            lut.to_linear[((c >> 8) & 0xff) as usize],
-                            lut.to_linear[((c >> 16) & 0xff) as usize],
-                        ]
-                    } else {
-                        m.albedo
-                    };
-                    let e = scene.ambient + e;
-                    let mut light = if m.window {
-                        0.05 + 0.3 * e + WINDOW_GAIN * scene.daylight
-                    } else {
-                        e
-                    };
-                    light += m.emissive * EMISSIVE_GAIN;
-                    let mut rad = albedo.map(|a| a * light);
-                    if scene.haze > 0.0 {
-                        let rx = (sx - cam.cx) / cam.fx;
-                        let ry = (sy - cam.cy) / cam.fy;
-                        let dist = z * (1.0 + rx * rx + ry * ry).sqrt();
-                        let f = (-scene.haze * dist).exp();
-                        for k in 0..3 {
-                            rad[k] = rad[k] * f + scene.haze_color[k] * (1.0 - f);
+                    let s = lens.map[row + x];
+                    (s.sx, s.sy)
+                };
+                // Light: interpolated on the grid when its four nodes see this surface.
+                let (k0, fx) = grid_pos(x, w);
+                let k1 = (k0 + 1).min(nx - 1);
+                let same = [id0[k0] == key, id0[k1] == key, id1[k0] == key, id1[k1] == key];
+                let e = if same[0] && same[1] && same[2] && same[3] {
+                    let top = e0[k0] + (e0[k1] - e0[k0]) * fx;
+                    let bot = e1[k0] + (e1[k1] - e1[k0]) * fx;
+                    top + (bot - top) * fy
+                } else if same[0] || same[1] || same[2] || same[3] {
+                    // Near an edge of the surface: the bilinear weights of the nodes on it,
+                    // renormalised (light varies little over the few pixels to them).
+                    let wts = [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy];
+                    let vals = [e0[k0], e0[k1], e1[k0], e1[k1]];
+                    let (mut sw, mut se) = (0.0, 0.0);
+                    for k in 0..4 {
+                        if same[k] {
+                            sw += wts[k];
+                            se += wts[k] * vals[k];
                         }
                     }
-                    rad
-                };
-                if let Some(out) = bytes.as_deref_mut() {
-                    let dx = x as f32 - vcx;
-                    let f = 1.0 - vig * (dx * dx + dy2);
-                    let mut px = [
-                        lut.encode_one(rad[0] * f),
-                        lut.encode_one(rad[1] * f),
-                        lut.encode_one(rad[2] * f),
-                    ];
-                    if amp > 0.0 {
-                        super::post::add_noise(&mut px, key, i, amp);
-                    }
-                    out[3 * i..3 * i + 3].copy_from_slice(&px);
-                } else if let Some((acc, first)) = accum.as_mut() {
-                    if *first {
-                        acc[i] = rad;
+                    if sw > 0.05 {
+                        se / sw
                     } else {
-                        for k in 0..3 {
-                            acc[i][k] += rad[k];
+                        exact += 1;
+                        self.irradiance_at(scene, vis, stamps, lens, view, x, y, shadows)
+                    }
+                } else {
+                    exact += 1;
+                    self.irradiance_at(scene, vis, stamps, lens, view, x, y, shadows)
+                };
+                let albedo = if textured {
+                    let u = (t.u[0] * sx + (t.u[1] * sy + t.u[2])) * z;
+                    let v = (t.v[0] * sx + (t.v[1] * sy + t.v[2])) * z;
+                    // Screen derivatives of u and v: du/dx = z·(d(u/z)/dx − u·d(1/z)/dx).
+                    let dudx = t.u[0] - u * t.w[0];
+                    let dudy = t.u[1] - u * t.w[1];
+                    let dvdx = t.v[0] - v * t.w[0];
+                    let dvdy = t.v[1] - v * t.w[1];
+                    let rx = dudx * dudx * m.mips.su2 + dvdx * dvdx * m.mips.sv2;
+                    let ry = dudy * dudy * m.mips.su2 + dvdy * dvdy * m.mips.sv2;
+                    let c = m.mips.sample(u, v, fmax(rx, ry) * (z * z));
+                    [
+                        lut.to_linear[(c & 0xff) as usize],
+                        lut.to_linear[((c >> 8) & 0xff) as usize],
+                        lut.to_linear[((c >> 16) & 0xff) as usize],
+                    ]
+                } else {
+                    m.albedo
+                };
+                let e = scene.ambient + e;
+                let mut light = if m.window {
+                    0.05 + 0.3 * e + WINDOW_GAIN * scene.daylight
+                } else {
+                    e
+                };
+                light += m.emissive * EMISSIVE_GAIN;
+                let mut rad = albedo.map(|a| a * light);
+                if scene.haze > 0.0 {
+                    let rx = (sx - cam.cx) / cam.fx;
+                    let ry = (sy - cam.cy) / cam.fy;
+                    let dist = z * (1.0 + rx * rx + ry * ry).sqrt();
+                    let f = (-scene.haze * dist).exp();
+                    for k in 0..3 {
+                        rad[k] = rad[k] * f + scene.haze_color[k] * (1.0 - f);
+                    }
+                }
+                *out = rad;
+            }
+            match &mut sink {
+                Sink::Bytes(bytes, _) => {
+                    let dy = y as f32 - vcy;
+                    let out_row = &mut bytes[3 * row..3 * (row + w)];
+                    for (x, (px, rad)) in out_row.chunks_exact_mut(3).zip(&row_rad).enumerate() {
+                        let dx = x as f32 - vcx;
+                        let f = 1.0 - vig * (dx * dx + dy * dy);
+                        let mut c = [
+                            lut.encode_one(rad[0] * f),
+                            lut.encode_one(rad[1] * f),
+                            lut.encode_one(rad[2] * f),
+                        ];
+                        if amp > 0 {
+                            super::post::add_noise(&mut c, noise_key, row + x, amp);
+                        }
+                        px.copy_from_slice(&c);
+                    }
+                }
+                Sink::Accum(acc, first) => {
+                    let acc_row = &mut acc[row..row + w];
+                    if *first {
+                        acc_row.copy_from_slice(&row_rad);
+                    } else {
+                        for (a, r) in acc_row.iter_mut().zip(&row_rad) {
+                            for k in 0..3 {
+                                a[k] += r[k];
+                            }
                         }
                     }
                 }
             }
         }
+        self.row = row_rad;
+        raster.stats.lit_exactly = exact;
     }
+}
+
+/// Which surface a pixel's light belongs to: light is continuous over a dominant plane (one
+/// position-and-normal field however the plane is split into triangles), so its id serves; a
+/// triangle off the dominant planes is its own surface.
+#[inline(always)]
+fn light_key(t: &VisTri, id: u32) -> u32 {
+    if t.plane != 0 { t.plane & 0x7fff_ffff } else { 0x8000_0000 | id }
+}
+
+/// The light-grid cell of pixel coordinate `x` (of `n`) and the fraction of the way to the next
+/// node (nodes at multiples of STEP and at the last pixel).
+#[inline(always)]
+fn grid_pos(x: usize, n: usize) -> (usize, f32) {
+    let k = x >> STEP_BITS;
+    let a = k << STEP_BITS;
+    let b = (a + STEP).min(n - 1);
+    let f = if b > a {
+        if b - a == STEP {
+            (x - a) as f32 * (1.0 / STEP as f32)
+        } else {
+            (x - a) as f32 / (b - a) as f32
+        }
+    } else {
+        0.0
+    };
+    (k, f)
 }
 
 /// Irradiance of one light at `p` with normal `n` (light already scaled by the gain).
@@ -467,7 +553,7 @@ fn direct8(tl: &TileLights, p: [f32; 3], n: [f32; 3]) -> f32 {
 }
 
 /// Like [`direct8`], but each light counts only when a ray to it is clear.
-fn shadowed(scene: &RenderScene, raster: &mut Raster, tl: &TileLights, p: [f32; 3], n: [f32; 3]) -> f32 {
+fn shadowed(scene: &RenderScene, stamps: &mut Stamps, tl: &TileLights, p: [f32; 3], n: [f32; 3]) -> f32 {
     let mut sum = 0.0;
     // Start the ray a little off the surface so it does not hit its own triangle.
     let from = [p[0] + n[0] * 2e-3, p[1] + n[1] * 2e-3, p[2] + n[2] * 2e-3];
@@ -482,8 +568,7 @@ fn shadowed(scene: &RenderScene, raster: &mut Raster, tl: &TileLights, p: [f32; 
         let len = dot32(d, d).sqrt();
         let short = if len > 0.1 { (len - 0.05) / len } else { 0.0 };
         let end = [from[0] + d[0] * short, from[1] + d[1] * short, from[2] + d[2] * short];
-        let stamp = raster.next_stamp();
-        if !scene.occluded(from, end, &mut raster.stamps, stamp) {
+        if !scene.occluded(from, end, stamps) {
             sum += c;
         }
     }

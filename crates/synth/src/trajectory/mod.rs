@@ -170,7 +170,7 @@ impl WalkConfig {
                 head_bob_m: 0.015,
                 turn_rate_deg_s: 90.0,
                 lateral_m: 0.2,
-                room_probability: 0.2,
+                room_probability: 0.12,
                 storey_dwell_m: [60.0, 150.0],
             },
             Rig::Ceiling { .. } => Self {
@@ -182,7 +182,7 @@ impl WalkConfig {
                 head_bob_m: 0.0,
                 turn_rate_deg_s: 45.0,
                 lateral_m: 0.1,
-                room_probability: 0.2,
+                room_probability: 0.12,
                 storey_dwell_m: [60.0, 150.0],
             },
         }

@@ -81,7 +81,7 @@ impl Walker {
             height,
             bob,
             speed: cfg.speed_mps.map(f64::from),
-            pace_base: uniform(r, 0.25, 0.75),
+            pace_base: uniform(r, 0.35, 0.8),
             pace_period: [uniform(r, 25.0, 45.0), uniform(r, 7.0, 13.0)],
             pace_phase: [uniform(r, 0.0, TAU), uniform(r, 0.0, TAU)],
             lateral: f64::from(cfg.lateral_m).min(0.3),

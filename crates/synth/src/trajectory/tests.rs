@@ -493,6 +493,14 @@ fn debug_default_world() -> TestResult {
             eprintln!("{i} {:?} {:?} {:?} deg {}", world.walk.nodes[i].p, g.storey[i], g.kind[i], g.adj[i].len());
         }
     }
+    for seed in 1..7 {
+        let cfg = WalkConfig::default();
+        let frames = walk(&world, &cfg, 5000, seed)?;
+        let steps = xy_steps(&frames);
+        let v: Vec<f64> = steps.iter().zip(&frames).filter(|(_, f)| f.place.as_ref().is_some_and(|p| p.kind == PlaceKind::Corridor)).map(|(s, _)| s * cfg.fps).filter(|x| *x >= 0.05).collect();
+        let fast = v.iter().filter(|x| **x > 1.2).count();
+        eprintln!("seed {seed}: corridor median moving {:.2}, >1.2: {fast} of {}", median(v.clone()), v.len());
+    }
     for (rig, n) in [(Rig::forward(), 20000), (Rig::ceiling(), 10000)] {
         let cfg = WalkConfig::for_rig(rig.clone());
         let t = std::time::Instant::now();
@@ -522,6 +530,11 @@ fn debug_default_world() -> TestResult {
         eprintln!("worst edge distance {worst}");
         let steps = xy_steps(&frames);
         eprintln!("median speed {}", median(steps.iter().map(|s| s * cfg.fps).filter(|v| *v > 0.05).collect()));
+        for kind in ["Corridor", "Room", "Stairwell", "Lobby", "Bridge"] {
+            let v: Vec<f64> = steps.iter().zip(&frames).filter(|(_, f)| f.place.as_ref().is_some_and(|p| format!("{:?}", p.kind) == kind)).map(|(s, _)| s * cfg.fps).collect();
+            let still = v.iter().filter(|x| **x < 0.05).count();
+            eprintln!("  {kind}: {} frames, still {still}, median moving {:.2}", v.len(), median(v.into_iter().filter(|x| *x >= 0.05).chain([0.0]).collect()));
+        }
         let rp = random_poses(&world, &rig, 2000, 1)?;
         eprintln!("random poses ok {}", rp.len());
         let (fr, cuts) = with_cuts(&world, &cfg, 10, [50, 150], 2)?;
