@@ -37,7 +37,14 @@ fn writes_a_native_dataset_that_reads_back() -> TestResult {
         assert!(ds.depth_path(frame).is_file() && ds.plane_path(frame).is_file());
     }
     // the dataset is ground truth `eval` understands
-    let e = json_of(&indoorloc(&["eval", "--gt", out.to_str().ok_or("p")?, "--est", out.to_str().ok_or("p")?, "--json"])?)?;
+    let e = json_of(&indoorloc(&[
+        "eval",
+        "--gt",
+        out.to_str().ok_or("p")?,
+        "--est",
+        out.to_str().ok_or("p")?,
+        "--json",
+    ])?)?;
     assert_eq!(e["frames"], 12);
     Ok(())
 }
@@ -48,8 +55,18 @@ fn same_seed_gives_byte_identical_files() -> TestResult {
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));
     synth(&a, &["--seed", "5", "--threads", "1"])?;
     synth(&b, &["--seed", "5"])?;
-    for rel in ["poses.csv", "labels.csv", "frames/000007.png", "depth/000007.png", "planes/000007.png"] {
-        assert_eq!(std::fs::read(a.join(rel))?, std::fs::read(b.join(rel))?, "{rel}");
+    for rel in [
+        "poses.csv",
+        "labels.csv",
+        "frames/000007.png",
+        "depth/000007.png",
+        "planes/000007.png",
+    ] {
+        assert_eq!(
+            std::fs::read(a.join(rel))?,
+            std::fs::read(b.join(rel))?,
+            "{rel}"
+        );
     }
     Ok(())
 }
@@ -68,7 +85,10 @@ fn bad_model_file_exits_2_naming_it() -> TestResult {
     ])?;
     let err = String::from_utf8(out.stderr)?;
     assert_eq!(out.status.code(), Some(2), "{err}");
-    assert!(err.contains("broken.obj") && !err.contains("panicked"), "{err}");
+    assert!(
+        err.contains("broken.obj") && !err.contains("panicked"),
+        "{err}"
+    );
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     Ok(())
 }

@@ -382,7 +382,11 @@ fn plot_err(path: &Path, e: impl std::fmt::Display) -> ReportError {
 }
 
 /// PNG bytes of an 8-bit RGB buffer, with fast compression (plots compress well anyway).
-pub(crate) fn encode_png(rgb: &[u8], w: u32, h: u32) -> std::result::Result<Vec<u8>, image::ImageError> {
+pub(crate) fn encode_png(
+    rgb: &[u8],
+    w: u32,
+    h: u32,
+) -> std::result::Result<Vec<u8>, image::ImageError> {
     use image::ImageEncoder;
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     let mut out = Vec::new();

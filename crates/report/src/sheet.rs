@@ -28,7 +28,9 @@ const TITLE: u32 = 40;
 pub fn contact_sheet(title: &str, tiles: &[Tile], columns: usize) -> Result<Vec<u8>> {
     let where_ = Path::new("contact sheet");
     if tiles.is_empty() || columns == 0 {
-        return Err(ReportError::BadInput("contact sheet: no tiles or zero columns".into()));
+        return Err(ReportError::BadInput(
+            "contact sheet: no tiles or zero columns".into(),
+        ));
     }
     ensure_font(where_)?;
     let cell_w = tiles.iter().map(|t| t.image.width()).max().unwrap_or(1);
@@ -53,12 +55,22 @@ pub fn contact_sheet(title: &str, tiles: &[Tile], columns: usize) -> Result<Vec<
             let x = GAP + c * (cell_w + GAP);
             let y = TITLE + r * (cell_h + GAP);
             let (w, h) = tile.image.dimensions();
-            let element = BitMapElement::with_owned_buffer((x as i32, y as i32), (w, h), tile.image.as_raw().clone())
-                .ok_or_else(|| ReportError::BadInput(format!("tile '{}' has a bad buffer", tile.label)))?;
+            let element = BitMapElement::with_owned_buffer(
+                (x as i32, y as i32),
+                (w, h),
+                tile.image.as_raw().clone(),
+            )
+            .ok_or_else(|| {
+                ReportError::BadInput(format!("tile '{}' has a bad buffer", tile.label))
+            })?;
             root.draw(&element).map_err(|e| plot_err(&e))?;
             let label_pos = (x as i32, (y + h + 3) as i32);
-            root.draw(&Text::new(tile.label.clone(), label_pos, caption_style.clone()))
-                .map_err(|e| plot_err(&e))?;
+            root.draw(&Text::new(
+                tile.label.clone(),
+                label_pos,
+                caption_style.clone(),
+            ))
+            .map_err(|e| plot_err(&e))?;
         }
         root.present().map_err(|e| plot_err(&e))?;
     }

@@ -67,7 +67,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
             let wall = start.elapsed().as_secs_f64();
-            let cpu = thread_cpu_ns().zip(cpu0).map(|(b, a)| (b - a) as f64 * 1e-9);
+            let cpu = thread_cpu_ns()
+                .zip(cpu0)
+                .map(|(b, a)| (b - a) as f64 * 1e-9);
             let n = poses.len() as f64;
             let secs = cpu.unwrap_or(wall);
             let per = |k: usize| sum[k] as f64 / n;
@@ -147,6 +149,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let out = r.render(&scene, &camera, pose, &opts, &[])?;
         out.rgb.save(format!("{dir}/speed_shadows.png"))?;
+        // Down the corridor: lamps fading into the distance.
+        let corridor = geom::Pose3 {
+            x: 1.0,
+            y: -0.3,
+            heading: 0.05,
+        }
+        .to_pose(geom::Mount::Forward, 1.6);
+        for mode in [RenderMode::Textured, RenderMode::Shaded] {
+            let opts = RenderOptions {
+                mode,
+                ..RenderOptions::default()
+            };
+            let out = r.render(&scene, &camera, &corridor, &opts, &[])?;
+            out.rgb
+                .save(format!("{dir}/speed_corridor_{}.png", mode.name()))?;
+        }
         println!("images written to {dir}");
     }
     Ok(())
@@ -166,15 +184,15 @@ fn walk(frames: usize) -> Vec<Pose> {
             let s = i as f64 / frames as f64;
             let storey = (i * 3 / frames.max(1)) as f64;
             let x = 2.0 + (s * 3.0).fract() * 56.0;
-            let yaw = 0.9 * (i as f64 * 0.05).sin() + if (i / 150) % 2 == 1 { std::f64::consts::PI } else { 0.0 };
+            let yaw = 0.9 * (i as f64 * 0.05).sin()
+                + if (i / 150) % 2 == 1 {
+                    std::f64::consts::PI
+                } else {
+                    0.0
+                };
             let y = 0.4 * (i as f64 * 0.013).sin();
             // A level forward camera (OpenCV axes) with this heading, at head height.
-            geom::Pose3 {
-                x,
-                y,
-                heading: yaw,
-            }
-            .to_pose(geom::Mount::Forward, storey * STOREY + 1.6)
+            geom::Pose3 { x, y, heading: yaw }.to_pose(geom::Mount::Forward, storey * STOREY + 1.6)
         })
         .collect()
 }
@@ -231,7 +249,16 @@ fn cuboid(w: &mut World, lo: [f32; 3], hi: [f32; 3], material: u16) {
 }
 
 /// A horizontal grid of quads facing up (`up`) or down, `cell` metres.
-fn slab(w: &mut World, lo: [f32; 2], hi: [f32; 2], z: f32, cell: f32, up: bool, material: u16, plane: u32) {
+fn slab(
+    w: &mut World,
+    lo: [f32; 2],
+    hi: [f32; 2],
+    z: f32,
+    cell: f32,
+    up: bool,
+    surface: (u16, u32),
+) {
+    let (material, plane) = surface;
     let nx = ((hi[0] - lo[0]) / cell).ceil() as usize;
     let ny = ((hi[1] - lo[1]) / cell).ceil() as usize;
     for i in 0..nx {
@@ -241,9 +268,19 @@ fn slab(w: &mut World, lo: [f32; 2], hi: [f32; 2], z: f32, cell: f32, up: bool, 
             let x1 = (x0 + cell).min(hi[0]);
             let y1 = (y0 + cell).min(hi[1]);
             if up {
-                quad(w, [[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]], material, plane);
+                quad(
+                    w,
+                    [[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]],
+                    material,
+                    plane,
+                );
             } else {
-                quad(w, [[x0, y0, z], [x0, y1, z], [x1, y1, z], [x1, y0, z]], material, plane);
+                quad(
+                    w,
+                    [[x0, y0, z], [x0, y1, z], [x1, y1, z], [x1, y0, z]],
+                    material,
+                    plane,
+                );
             }
         }
     }
@@ -255,39 +292,120 @@ fn office() -> World {
         name: "render_speed office".into(),
         ..World::default()
     };
-    let mat = |w: &mut World, name: &str, color: [f32; 3], pattern: Pattern, seed: u64, emissive: f32| {
-        w.add_material(Material {
-            name: name.into(),
-            color,
-            pattern,
-            seed,
-            emissive,
-        })
-    };
+    let mat =
+        |w: &mut World, name: &str, color: [f32; 3], pattern: Pattern, seed: u64, emissive: f32| {
+            w.add_material(Material {
+                name: name.into(),
+                color,
+                pattern,
+                seed,
+                emissive,
+            })
+        };
     let wall = mat(&mut w, "wall", [0.85, 0.83, 0.78], Pattern::Plain, 1, 0.0);
-    let wall2 = mat(&mut w, "wall room", [0.75, 0.8, 0.85], Pattern::Plain, 2, 0.0);
-    let floor = mat(&mut w, "floor", [0.45, 0.45, 0.43], Pattern::Tiles { size: 0.5 }, 3, 0.0);
+    let wall2 = mat(
+        &mut w,
+        "wall room",
+        [0.75, 0.8, 0.85],
+        Pattern::Plain,
+        2,
+        0.0,
+    );
+    let floor = mat(
+        &mut w,
+        "floor",
+        [0.45, 0.45, 0.43],
+        Pattern::Tiles { size: 0.5 },
+        3,
+        0.0,
+    );
     let carpet = mat(&mut w, "carpet", [0.3, 0.33, 0.4], Pattern::Carpet, 4, 0.0);
-    let ceiling = mat(&mut w, "ceiling", [0.92, 0.92, 0.9], Pattern::Tiles { size: 0.6 }, 5, 0.0);
-    let panel = mat(&mut w, "panel", [0.95, 0.95, 0.92], Pattern::LightPanel, 6, 1.0);
+    let ceiling = mat(
+        &mut w,
+        "ceiling",
+        [0.92, 0.92, 0.9],
+        Pattern::Tiles { size: 0.6 },
+        5,
+        0.0,
+    );
+    let panel = mat(
+        &mut w,
+        "panel",
+        [0.95, 0.95, 0.92],
+        Pattern::LightPanel,
+        6,
+        1.0,
+    );
     let wood = mat(&mut w, "desk", [0.6, 0.45, 0.3], Pattern::Wood, 7, 0.0);
     let fabric = mat(&mut w, "chair", [0.2, 0.25, 0.5], Pattern::Fabric, 8, 0.0);
     let door = mat(&mut w, "door", [0.55, 0.4, 0.28], Pattern::Wood, 9, 0.0);
     let window = mat(&mut w, "window", [0.8, 0.8, 0.8], Pattern::Window, 10, 0.0);
     let posters: Vec<u16> = (0..6)
-        .map(|k| mat(&mut w, "poster", [0.9, 0.9 - 0.1 * k as f32, 0.7], Pattern::Poster, 20 + k, 0.0))
+        .map(|k| {
+            mat(
+                &mut w,
+                "poster",
+                [0.9, 0.9 - 0.1 * k as f32, 0.7],
+                Pattern::Poster,
+                20 + k,
+                0.0,
+            )
+        })
         .collect();
-    let board = mat(&mut w, "board", [0.6, 0.45, 0.3], Pattern::NoticeBoard, 30, 0.0);
+    let board = mat(
+        &mut w,
+        "board",
+        [0.6, 0.45, 0.3],
+        Pattern::NoticeBoard,
+        30,
+        0.0,
+    );
     for s in 0..3 {
         let z0 = s as f32 * STOREY as f32;
         let z1 = z0 + HEIGHT;
         let floor_plane = (s * 10 + 1) as u32;
         // Corridor floor and ceiling (fine grids, as generators tile them).
-        slab(&mut w, [0.0, -HALF], [LENGTH, HALF], z0, 1.0, true, floor, floor_plane);
-        slab(&mut w, [0.0, -HALF], [LENGTH, HALF], z1, 0.6, false, ceiling, floor_plane + 1);
+        slab(
+            &mut w,
+            [0.0, -HALF],
+            [LENGTH, HALF],
+            z0,
+            1.0,
+            true,
+            (floor, floor_plane),
+        );
+        slab(
+            &mut w,
+            [0.0, -HALF],
+            [LENGTH, HALF],
+            z1,
+            0.6,
+            false,
+            (ceiling, floor_plane + 1),
+        );
         // End walls.
-        quad(&mut w, [[0.0, -HALF, z0], [0.0, HALF, z0], [0.0, HALF, z1], [0.0, -HALF, z1]], wall, floor_plane + 2);
-        quad(&mut w, [[LENGTH, HALF, z0], [LENGTH, -HALF, z0], [LENGTH, -HALF, z1], [LENGTH, HALF, z1]], wall, floor_plane + 5);
+        quad(
+            &mut w,
+            [
+                [0.0, -HALF, z0],
+                [0.0, HALF, z0],
+                [0.0, HALF, z1],
+                [0.0, -HALF, z1],
+            ],
+            wall,
+            floor_plane + 2,
+        );
+        quad(
+            &mut w,
+            [
+                [LENGTH, HALF, z0],
+                [LENGTH, -HALF, z0],
+                [LENGTH, -HALF, z1],
+                [LENGTH, HALF, z1],
+            ],
+            wall,
+            floor_plane + 5,
+        );
         let rooms = (LENGTH / ROOM_W) as usize;
         for side in [-1.0f32, 1.0] {
             let wall_plane = floor_plane + if side > 0.0 { 3 } else { 4 };
@@ -297,58 +415,154 @@ fn office() -> World {
                 let door0 = x0 + 1.0;
                 let door1 = door0 + 1.0;
                 // Corridor wall with a door opening: thick boxes around the opening.
-                let (ya, yb) = if side > 0.0 { (HALF, HALF + 0.1) } else { (-HALF - 0.1, -HALF) };
+                let (ya, yb) = if side > 0.0 {
+                    (HALF, HALF + 0.1)
+                } else {
+                    (-HALF - 0.1, -HALF)
+                };
                 cuboid(&mut w, [x0, ya, z0], [door0, yb, z1], wall);
                 cuboid(&mut w, [door1, ya, z0], [x1, yb, z1], wall);
                 cuboid(&mut w, [door0, ya, z0 + 2.1], [door1, yb, z1], wall);
                 // An open door leaf.
-                let (d0, d1) = if side > 0.0 { (HALF + 0.1, HALF + 0.95) } else { (-HALF - 0.95, -HALF - 0.1) };
+                let (d0, d1) = if side > 0.0 {
+                    (HALF + 0.1, HALF + 0.95)
+                } else {
+                    (-HALF - 0.95, -HALF - 0.1)
+                };
                 cuboid(&mut w, [door0, d0, z0], [door0 + 0.04, d1, z0 + 2.05], door);
                 // Poster and notice board on the corridor side.
-                let yface = if side > 0.0 { HALF - 0.01 } else { -HALF + 0.01 };
+                let yface = if side > 0.0 {
+                    HALF - 0.01
+                } else {
+                    -HALF + 0.01
+                };
                 let px = x0 + 2.8;
                 let pm = posters[(r + s * 3) % posters.len()];
-                // Upright for a viewer in the corridor: u runs to the viewer's right (up × normal).
+                // Upright for a viewer in the corridor: u runs to the viewer's right
+                // (up × normal).
                 if side > 0.0 {
-                    decal(&mut w, [[px, yface, z0 + 1.2], [px + 0.6, yface, z0 + 1.2], [px + 0.6, yface, z0 + 2.05], [px, yface, z0 + 2.05]], pm);
+                    decal(
+                        &mut w,
+                        [
+                            [px, yface, z0 + 1.2],
+                            [px + 0.6, yface, z0 + 1.2],
+                            [px + 0.6, yface, z0 + 2.05],
+                            [px, yface, z0 + 2.05],
+                        ],
+                        pm,
+                    );
                 } else {
-                    decal(&mut w, [[px + 1.2, yface, z0 + 1.1], [px, yface, z0 + 1.1], [px, yface, z0 + 2.0], [px + 1.2, yface, z0 + 2.0]], board);
+                    decal(
+                        &mut w,
+                        [
+                            [px + 1.2, yface, z0 + 1.1],
+                            [px, yface, z0 + 1.1],
+                            [px, yface, z0 + 2.0],
+                            [px + 1.2, yface, z0 + 2.0],
+                        ],
+                        board,
+                    );
                 }
                 // The room: floor, ceiling, walls, window, furniture, lamps.
-                let (ry0, ry1) = if side > 0.0 { (HALF + 0.1, HALF + 0.1 + ROOM_D) } else { (-HALF - 0.1 - ROOM_D, -HALF - 0.1) };
-                slab(&mut w, [x0, ry0], [x1, ry1], z0, 1.0, true, carpet, floor_plane);
-                slab(&mut w, [x0, ry0], [x1, ry1], z1, 0.6, false, ceiling, floor_plane + 1);
+                let (ry0, ry1) = if side > 0.0 {
+                    (HALF + 0.1, HALF + 0.1 + ROOM_D)
+                } else {
+                    (-HALF - 0.1 - ROOM_D, -HALF - 0.1)
+                };
+                slab(
+                    &mut w,
+                    [x0, ry0],
+                    [x1, ry1],
+                    z0,
+                    1.0,
+                    true,
+                    (carpet, floor_plane),
+                );
+                slab(
+                    &mut w,
+                    [x0, ry0],
+                    [x1, ry1],
+                    z1,
+                    0.6,
+                    false,
+                    (ceiling, floor_plane + 1),
+                );
                 cuboid(&mut w, [x1 - 0.05, ry0, z0], [x1 + 0.05, ry1, z1], wall2);
                 let outer = if side > 0.0 { ry1 } else { ry0 };
                 let face = if side > 0.0 {
-                    [[x0, outer, z0], [x1, outer, z0], [x1, outer, z1], [x0, outer, z1]]
+                    [
+                        [x0, outer, z0],
+                        [x1, outer, z0],
+                        [x1, outer, z1],
+                        [x0, outer, z1],
+                    ]
                 } else {
-                    [[x1, outer, z0], [x0, outer, z0], [x0, outer, z1], [x1, outer, z1]]
+                    [
+                        [x1, outer, z0],
+                        [x0, outer, z0],
+                        [x0, outer, z1],
+                        [x1, outer, z1],
+                    ]
                 };
                 quad(&mut w, face, wall2, wall_plane + 2);
                 let wy = outer - side * 0.01;
                 let win = if side > 0.0 {
-                    [[x0 + 1.9, wy, z0 + 0.9], [x0 + 3.1, wy, z0 + 0.9], [x0 + 3.1, wy, z0 + 2.4], [x0 + 1.9, wy, z0 + 2.4]]
+                    [
+                        [x0 + 1.9, wy, z0 + 0.9],
+                        [x0 + 3.1, wy, z0 + 0.9],
+                        [x0 + 3.1, wy, z0 + 2.4],
+                        [x0 + 1.9, wy, z0 + 2.4],
+                    ]
                 } else {
-                    [[x0 + 3.1, wy, z0 + 0.9], [x0 + 1.9, wy, z0 + 0.9], [x0 + 1.9, wy, z0 + 2.4], [x0 + 3.1, wy, z0 + 2.4]]
+                    [
+                        [x0 + 3.1, wy, z0 + 0.9],
+                        [x0 + 1.9, wy, z0 + 0.9],
+                        [x0 + 1.9, wy, z0 + 2.4],
+                        [x0 + 3.1, wy, z0 + 2.4],
+                    ]
                 };
                 decal(&mut w, win, window);
                 for d in 0..3 {
                     let dx = x0 + 0.6 + d as f32 * 1.4;
                     let dy = (ry0 + ry1) / 2.0 + side * 0.8;
                     // Desk: top and four legs.
-                    cuboid(&mut w, [dx, dy - 0.4, z0 + 0.72], [dx + 1.2, dy + 0.4, z0 + 0.75], wood);
+                    cuboid(
+                        &mut w,
+                        [dx, dy - 0.4, z0 + 0.72],
+                        [dx + 1.2, dy + 0.4, z0 + 0.75],
+                        wood,
+                    );
                     for (lx, ly) in [(0.02, -0.38), (1.14, -0.38), (0.02, 0.34), (1.14, 0.34)] {
-                        cuboid(&mut w, [dx + lx, dy + ly, z0], [dx + lx + 0.04, dy + ly + 0.04, z0 + 0.72], wood);
+                        cuboid(
+                            &mut w,
+                            [dx + lx, dy + ly, z0],
+                            [dx + lx + 0.04, dy + ly + 0.04, z0 + 0.72],
+                            wood,
+                        );
                     }
                     // Chair: seat, back, five legs.
                     let cy = dy - side * 0.7;
-                    cuboid(&mut w, [dx + 0.4, cy - 0.22, z0 + 0.45], [dx + 0.84, cy + 0.22, z0 + 0.5], fabric);
-                    cuboid(&mut w, [dx + 0.4, cy - side * 0.22 - 0.02, z0 + 0.5], [dx + 0.84, cy - side * 0.22 + 0.02, z0 + 1.0], fabric);
+                    cuboid(
+                        &mut w,
+                        [dx + 0.4, cy - 0.22, z0 + 0.45],
+                        [dx + 0.84, cy + 0.22, z0 + 0.5],
+                        fabric,
+                    );
+                    cuboid(
+                        &mut w,
+                        [dx + 0.4, cy - side * 0.22 - 0.02, z0 + 0.5],
+                        [dx + 0.84, cy - side * 0.22 + 0.02, z0 + 1.0],
+                        fabric,
+                    );
                     for k in 0..5 {
                         let a = k as f32 * 1.2566;
                         let (lx, ly) = (dx + 0.62 + 0.2 * a.cos(), cy + 0.2 * a.sin());
-                        cuboid(&mut w, [lx - 0.02, ly - 0.02, z0], [lx + 0.02, ly + 0.02, z0 + 0.45], fabric);
+                        cuboid(
+                            &mut w,
+                            [lx - 0.02, ly - 0.02, z0],
+                            [lx + 0.02, ly + 0.02, z0 + 0.45],
+                            fabric,
+                        );
                     }
                 }
                 for k in 0..2 {
@@ -395,7 +609,11 @@ fn office() -> World {
 fn lamp(w: &mut World, panel: u16, c: [f32; 3]) {
     let z = c[2] - 0.01;
     let (x0, x1, y0, y1) = (c[0] - 0.3, c[0] + 0.3, c[1] - 0.3, c[1] + 0.3);
-    decal(w, [[x0, y0, z], [x0, y1, z], [x1, y1, z], [x1, y0, z]], panel);
+    decal(
+        w,
+        [[x0, y0, z], [x0, y1, z], [x1, y1, z], [x1, y0, z]],
+        panel,
+    );
     w.lights.push(Light {
         position: Point3::new(c[0], c[1], c[2] - 0.05),
         intensity: 1.0,

@@ -153,7 +153,11 @@ struct Shot {
 }
 
 /// Renders the dataset into `out`; `progress` is called with the number of frames done so far.
-pub fn run(cfg: &SynthConfig, out: &Path, progress: &(dyn Fn(usize) + Sync)) -> Result<SynthSummary> {
+pub fn run(
+    cfg: &SynthConfig,
+    out: &Path,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<SynthSummary> {
     if cfg.frames == 0 || cfg.sequences == 0 || cfg.sequences > cfg.frames {
         return Err(SynthError::Config(format!(
             "need 1 ≤ sequences ≤ frames (got {} sequences, {} frames)",
@@ -180,10 +184,9 @@ pub fn run(cfg: &SynthConfig, out: &Path, progress: &(dyn Fn(usize) + Sync)) -> 
     let done = AtomicUsize::new(0);
     let rendered = AtomicUsize::new(0);
     let start = std::time::Instant::now();
-    shots
-        .par_iter()
-        .enumerate()
-        .try_for_each_init(Renderer::new, |renderer, (index, shot)| -> Result<()> {
+    shots.par_iter().enumerate().try_for_each_init(
+        Renderer::new,
+        |renderer, (index, shot)| -> Result<()> {
             let frame_path = out.join("frames").join(format!("{index:06}.png"));
             if !(cfg.resume && frame_path.is_file()) {
                 let opts = RenderOptions {
@@ -209,7 +212,8 @@ pub fn run(cfg: &SynthConfig, out: &Path, progress: &(dyn Fn(usize) + Sync)) -> 
             }
             progress(done.fetch_add(1, Ordering::Relaxed) + 1);
             Ok(())
-        })?;
+        },
+    )?;
     let render_seconds = start.elapsed().as_secs_f64();
 
     write_metadata(cfg, out, &world, &camera, &shots, &cuts, fps)?;
@@ -241,7 +245,12 @@ fn plan_shots(world: &World, cfg: &SynthConfig, rig: &Rig) -> Result<(Vec<Shot>,
                     trajectory::with_cuts(world, &walk_cfg, segments, [lo, lo + lo / 2], seed)?;
                 frames.truncate(n);
                 let base = shots.len() as u64;
-                cuts.extend(seq_cuts.into_iter().filter(|&c| c < n).map(|c| base + c as u64));
+                cuts.extend(
+                    seq_cuts
+                        .into_iter()
+                        .filter(|&c| c < n)
+                        .map(|c| base + c as u64),
+                );
                 frames
             }
         };
@@ -288,7 +297,9 @@ fn write_metadata(
                 frame: i as u64,
                 building: format!("B{}", place.building),
                 floor: format!("F{}", place.storey),
-                corridor: place.corridor.map_or_else(|| "none".into(), |c| format!("C{c}")),
+                corridor: place
+                    .corridor
+                    .map_or_else(|| "none".into(), |c| format!("C{c}")),
                 direction: match s.frame.direction {
                     Some(Direction::Forward) => "fwd".into(),
                     Some(Direction::Backward) => "back".into(),
@@ -303,7 +314,10 @@ fn write_metadata(
     settings.insert("world".into(), world.name.clone());
     settings.insert("mode".into(), cfg.mode.to_string());
     settings.insert("variant".into(), cfg.variant.name().into());
-    settings.insert("sampler".into(), format!("{:?}", cfg.sampler).to_lowercase());
+    settings.insert(
+        "sampler".into(),
+        format!("{:?}", cfg.sampler).to_lowercase(),
+    );
     let info = DatasetInfo {
         name: format!("{} ({}, {})", world.name, cfg.mode, cfg.variant.name()),
         dof: match cfg.camera {
@@ -326,7 +340,14 @@ fn write_metadata(
     };
     let cuts_opt = (!cuts.is_empty()).then_some(cuts);
     let labels_opt = (!labels.is_empty()).then_some(labels.as_slice());
-    native::write_metadata(out, &info, &Trajectory::new(frames), labels_opt, cuts_opt, &splits)?;
+    native::write_metadata(
+        out,
+        &info,
+        &Trajectory::new(frames),
+        labels_opt,
+        cuts_opt,
+        &splits,
+    )?;
     Ok(())
 }
 
@@ -349,14 +370,23 @@ fn encode(width: u32, height: u32, raw: &[u8], color: image::ExtendedColorType) 
 
 /// PNG bytes of an RGB image.
 pub fn encode_rgb(img: &image::RgbImage) -> Result<Vec<u8>> {
-    encode(img.width(), img.height(), img.as_raw(), image::ExtendedColorType::Rgb8)
+    encode(
+        img.width(),
+        img.height(),
+        img.as_raw(),
+        image::ExtendedColorType::Rgb8,
+    )
 }
 
 /// PNG bytes of a 16-bit depth image in millimetres (0 = no depth; saturates at 65.535 m).
 pub fn encode_depth_mm(depth: &[f32], width: u32, height: u32) -> Result<Vec<u8>> {
     let mut raw = Vec::with_capacity(depth.len() * 2);
     for &d in depth {
-        let mm = if d.is_finite() && d > 0.0 { (d * 1000.0).round().min(65535.0) as u16 } else { 0 };
+        let mm = if d.is_finite() && d > 0.0 {
+            (d * 1000.0).round().min(65535.0) as u16
+        } else {
+            0
+        };
         raw.extend_from_slice(&mm.to_be_bytes()); // PNG stores 16-bit samples big-endian
     }
     encode(width, height, &raw, image::ExtendedColorType::L16)
@@ -378,7 +408,10 @@ pub fn encode_planes(plane: &[u32], width: u32, height: u32) -> Result<Vec<u8>> 
         .enumerate()
         .map(|(i, &(id, _))| (id, (i + 1) as u8))
         .collect();
-    let raw: Vec<u8> = plane.iter().map(|p| rank.get(p).copied().unwrap_or(0)).collect();
+    let raw: Vec<u8> = plane
+        .iter()
+        .map(|p| rank.get(p).copied().unwrap_or(0))
+        .collect();
     encode(width, height, &raw, image::ExtendedColorType::L8)
 }
 
@@ -387,7 +420,11 @@ pub fn encode_planes(plane: &[u32], width: u32, height: u32) -> Result<Vec<u8>> 
 pub fn export_7scenes(native_dir: &Path, out: &Path) -> Result<()> {
     let ds = native::NativeDataset::open(native_dir)?;
     let seqs = ds.sequences();
-    let seq_no: HashMap<&str, usize> = seqs.iter().enumerate().map(|(i, s)| (s.as_str(), i + 1)).collect();
+    let seq_no: HashMap<&str, usize> = seqs
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.as_str(), i + 1))
+        .collect();
     let mut frames = Vec::with_capacity(ds.trajectory.len());
     let mut per_seq_index: HashMap<usize, usize> = HashMap::new();
     for (i, f) in ds.trajectory.frames.iter().enumerate() {
@@ -396,9 +433,15 @@ pub fn export_7scenes(native_dir: &Path, out: &Path) -> Result<()> {
         let stem = format!("frame-{:06}", *k);
         *k += 1;
         let dir = out.join(format!("seq-{no:02}"));
-        std::fs::create_dir_all(&dir).map_err(|source| SynthError::Io { path: dir.clone(), source })?;
+        std::fs::create_dir_all(&dir).map_err(|source| SynthError::Io {
+            path: dir.clone(),
+            source,
+        })?;
         let frame_no = ds.frame_number(i).unwrap_or(i as u64);
-        copy(&ds.frame_path(frame_no), &dir.join(format!("{stem}.color.png")))?;
+        copy(
+            &ds.frame_path(frame_no),
+            &dir.join(format!("{stem}.color.png")),
+        )?;
         let depth = ds.depth_path(frame_no);
         if depth.is_file() {
             copy(&depth, &dir.join(format!("{stem}.depth.png")))?;
@@ -426,6 +469,9 @@ pub fn export_7scenes(native_dir: &Path, out: &Path) -> Result<()> {
 }
 
 fn copy(from: &Path, to: &Path) -> Result<()> {
-    let bytes = std::fs::read(from).map_err(|source| SynthError::Io { path: from.to_path_buf(), source })?;
+    let bytes = std::fs::read(from).map_err(|source| SynthError::Io {
+        path: from.to_path_buf(),
+        source,
+    })?;
     write_png(to, &bytes)
 }

@@ -9,8 +9,8 @@
 pub mod dataset;
 mod error;
 pub mod import;
-pub mod procedural;
 pub mod preview;
+pub mod procedural;
 pub mod render;
 pub mod trajectory;
 pub mod variants;

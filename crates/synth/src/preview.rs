@@ -27,7 +27,12 @@ pub fn contact_sheet(cfg: &SynthConfig) -> Result<Vec<u8>> {
         .last()
         .ok_or_else(|| SynthError::Config("the walk for the preview is empty".into()))?
         .clone();
-    let modes = [RenderMode::Shaded, RenderMode::Textured, RenderMode::Edges, RenderMode::Gradmag];
+    let modes = [
+        RenderMode::Shaded,
+        RenderMode::Textured,
+        RenderMode::Edges,
+        RenderMode::Gradmag,
+    ];
     let rows: Vec<Vec<report::Tile>> = Variant::ALL
         .par_iter()
         .map(|&variant| -> Result<Vec<report::Tile>> {

@@ -166,7 +166,12 @@ fn bench_render(args: &BenchArgs) -> Result<Vec<RenderFigures>> {
     let mut figures = Vec::new();
     for (w, h) in [(160u32, 120u32), (320, 240)] {
         let camera = synth::trajectory::camera_for(&rig, w, h, cfg.seed)?;
-        for mode in [RenderMode::Shaded, RenderMode::Textured, RenderMode::Edges, RenderMode::Gradmag] {
+        for mode in [
+            RenderMode::Shaded,
+            RenderMode::Textured,
+            RenderMode::Edges,
+            RenderMode::Gradmag,
+        ] {
             let opts = RenderOptions {
                 mode,
                 ..RenderOptions::default()

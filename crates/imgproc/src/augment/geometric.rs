@@ -85,14 +85,7 @@ impl Affine2 {
         }
         let (a, b, d, e) = (m[4] / det, -m[1] / det, -m[3] / det, m[0] / det);
         Ok(Affine2 {
-            m: [
-                a,
-                b,
-                -(a * m[2] + b * m[5]),
-                d,
-                e,
-                -(d * m[2] + e * m[5]),
-            ],
+            m: [a, b, -(a * m[2] + b * m[5]), d, e, -(d * m[2] + e * m[5])],
         })
     }
 
@@ -553,8 +546,14 @@ mod tests {
             let got = centroids(&rotated);
             let plus = max_distance(&got, &projected(h + theta));
             let minus = max_distance(&got, &projected(h - theta));
-            assert!(plus < 0.25, "θ = {theta_deg}°: {plus} px from heading h + θ");
-            assert!(minus > 10.0, "θ = {theta_deg}°: only {minus} px from heading h − θ");
+            assert!(
+                plus < 0.25,
+                "θ = {theta_deg}°: {plus} px from heading h + θ"
+            );
+            assert!(
+                minus > 10.0,
+                "θ = {theta_deg}°: only {minus} px from heading h − θ"
+            );
             // The whole image, not just the centroids, is the render from heading h + θ.
             let diff = |a: &RgbImage, b: &RgbImage| {
                 a.as_raw()
@@ -568,8 +567,14 @@ mod tests {
             // the wrong sign is off by the full blob.
             let d_plus = diff(&rotated, &cam.render(h + theta, &points));
             let d_minus = diff(&rotated, &cam.render(h - theta, &points));
-            assert!(d_plus <= 16, "θ = {theta_deg}°: max pixel difference {d_plus}");
-            assert!(d_minus > 200, "θ = {theta_deg}°: h − θ differs by only {d_minus}");
+            assert!(
+                d_plus <= 16,
+                "θ = {theta_deg}°: max pixel difference {d_plus}"
+            );
+            assert!(
+                d_minus > 200,
+                "θ = {theta_deg}°: h − θ differs by only {d_minus}"
+            );
             // And the label change says so: s = +1.
             assert!((change.heading_delta - theta).abs() < 1e-12);
         }

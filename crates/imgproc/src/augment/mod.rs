@@ -262,7 +262,10 @@ impl EraseJitter {
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> Option<EraseParams> {
         let fire = rng.random::<f64>() < self.p;
         let span = u64::from(self.count[1] - self.count[0]) + 1;
-        let count = self.count[0] + (rng.random::<f64>() * span as f64).floor().min((span - 1) as f64) as u32;
+        let count = self.count[0]
+            + (rng.random::<f64>() * span as f64)
+                .floor()
+                .min((span - 1) as f64) as u32;
         let area_fraction = lerp(self.area[0], self.area[1], rng.random::<f64>());
         let fill = if rng.random::<f64>() < self.noise_fill_p {
             EraseFill::Noise
@@ -310,9 +313,9 @@ pub struct AugmentConfig {
     pub border: Border,
     /// Texture and style randomisation.
     pub style: StyleJitter,
-    /// Exposure factor (≥ 0; 1 = unchanged), drawn log-uniformly.
+    /// Exposure factor (> 0; 1 = unchanged), drawn log-uniformly.
     pub brightness: Jitter,
-    /// Contrast factor about the mean (≥ 0; 1 = unchanged), drawn log-uniformly.
+    /// Contrast factor about the mean (> 0; 1 = unchanged), drawn log-uniformly.
     pub contrast: Jitter,
     /// Gamma exponent (> 0; 1 = unchanged), drawn log-uniformly.
     pub gamma: Jitter,
@@ -441,16 +444,17 @@ impl AugmentConfig {
     /// An error naming the first parameter out of its range (probability outside [0, 1],
     /// negative sigma, area fraction above 1, min > max, non-finite values...).
     pub fn validate(&self) -> Result<()> {
-        self.rotation_deg
-            .check("rotation_deg", -360.0, 360.0)?;
+        self.rotation_deg.check("rotation_deg", -360.0, 360.0)?;
         self.affine.validate()?;
         Jitter {
             p: self.style.p,
             range: self.style.strength,
         }
         .check("style strength", 0.0, 1.0)?;
-        self.brightness.check("brightness", f64::MIN_POSITIVE, f64::MAX)?;
-        self.contrast.check("contrast", f64::MIN_POSITIVE, f64::MAX)?;
+        self.brightness
+            .check("brightness", f64::MIN_POSITIVE, f64::MAX)?;
+        self.contrast
+            .check("contrast", f64::MIN_POSITIVE, f64::MAX)?;
         self.gamma.check("gamma", f64::MIN_POSITIVE, f64::MAX)?;
         self.saturation.check("saturation", 0.0, f64::MAX)?;
         self.hue_deg.check("hue_deg", -180.0, 180.0)?;
@@ -544,7 +548,11 @@ pub fn augment_into<P: Pixel<Subpixel = u8>>(
 
     let mut rng = stage_rng(seed, stream::STYLE);
     let fire = rng.random::<f64>() < cfg.style.p;
-    let strength = lerp(cfg.style.strength[0], cfg.style.strength[1], rng.random::<f64>());
+    let strength = lerp(
+        cfg.style.strength[0],
+        cfg.style.strength[1],
+        rng.random::<f64>(),
+    );
     if fire {
         style::style_slice(&cur, &mut tmp, wu, hu, cn, strength, &mut rng);
         std::mem::swap(&mut cur, &mut tmp);
@@ -604,10 +612,16 @@ pub fn augment_into<P: Pixel<Subpixel = u8>>(
 }
 
 /// Wraps a byte buffer of the right length as an image.
-fn as_image<P: Pixel<Subpixel = u8>>(w: u32, h: u32, buf: Vec<u8>) -> Result<ImageBuffer<P, Vec<u8>>> {
+fn as_image<P: Pixel<Subpixel = u8>>(
+    w: u32,
+    h: u32,
+    buf: Vec<u8>,
+) -> Result<ImageBuffer<P, Vec<u8>>> {
     let len = buf.len();
     ImageBuffer::from_raw(w, h, buf).ok_or_else(|| {
-        ImgprocError::Size(format!("buffer of {len} bytes does not hold a {w}x{h} image"))
+        ImgprocError::Size(format!(
+            "buffer of {len} bytes does not hold a {w}x{h} image"
+        ))
     })
 }
 
@@ -617,9 +631,9 @@ mod tests {
     use super::test_util::scene;
     use super::*;
     use image::{GrayImage, RgbImage, imageops};
-    use std::f64::consts::PI;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
+    use std::f64::consts::PI;
     use std::time::Instant;
 
     /// Every op fires, at moderate strength: the worst case for speed and for determinism.
@@ -781,7 +795,11 @@ mod tests {
     #[test]
     fn grey_images_augment_too() -> Result<()> {
         let img = imageops::grayscale(&scene(80, 60));
-        for cfg in [AugmentConfig::ceiling(), AugmentConfig::shape_bias(), everything()] {
+        for cfg in [
+            AugmentConfig::ceiling(),
+            AugmentConfig::shape_bias(),
+            everything(),
+        ] {
             let (a, _) = augment(&img, &cfg, 5)?;
             let (b, _) = augment(&img, &cfg, 5)?;
             assert_eq!(a, b);
@@ -853,11 +871,12 @@ mod tests {
     #[test]
     fn oversized_buffers_and_odd_sizes_are_handled() -> Result<()> {
         // An ImageBuffer may own more bytes than its pixels need; the ops ignore the tail.
-        let long = RgbImage::from_raw(5, 3, vec![90; 100])
-            .ok_or(ImgprocError::Size("from_raw".into()))?;
+        let long =
+            RgbImage::from_raw(5, 3, vec![90; 100]).ok_or(ImgprocError::Size("from_raw".into()))?;
         let (out, _) = augment(&long, &everything(), 2)?;
         assert_eq!(out.dimensions(), (5, 3));
-        let mut dst = RgbImage::from_raw(5, 3, vec![0; 60]).ok_or(ImgprocError::Size("from_raw".into()))?;
+        let mut dst =
+            RgbImage::from_raw(5, 3, vec![0; 60]).ok_or(ImgprocError::Size("from_raw".into()))?;
         augment_into(&long, &AugmentConfig::shape_bias(), 2, &mut dst)?;
         rotate_about_center(&long, &mut dst, 1.0, Border::Reflect)?;
         gaussian_blur(&long, &mut dst, 2.0)?;
@@ -953,28 +972,43 @@ mod tests {
                     seed += 1;
                     augment_into(&img, &cfg, seed, &mut dst).map(|_| ())
                 })?;
-                println!("{w}x{h} {name:>10}: {cpu:.3} ms CPU per image ({wall:.3} ms wall, {n} images)");
+                println!(
+                    "{w}x{h} {name:>10}: {cpu:.3} ms CPU per image ({wall:.3} ms wall, {n} images)"
+                );
             }
         }
         // Each op alone at 320x240, to see where the time goes.
         let img = scene(320, 240);
         let mut dst = RgbImage::new(320, 240);
         let mut rng = ChaCha8Rng::seed_from_u64(0);
-        let mut time = |name: &str, f: &mut dyn FnMut(&mut RgbImage, &mut ChaCha8Rng) -> Result<()>| -> Result<()> {
+        let mut time = |name: &str,
+                        f: &mut dyn FnMut(&mut RgbImage, &mut ChaCha8Rng) -> Result<()>|
+         -> Result<()> {
             let (wall, cpu, _) = measure(|| f(&mut dst, &mut rng))?;
             println!("320x240 {name:>16}: {cpu:.3} ms CPU ({wall:.3} ms wall)");
             Ok(())
         };
-        time("rotate", &mut |d, _| rotate_about_center(&img, d, 0.3, Border::Black).map(|_| ()))?;
-        time("style", &mut |d, r| style_randomize(&img, d, &StyleParams { strength: 1.0 }, r))?;
+        time("rotate", &mut |d, _| {
+            rotate_about_center(&img, d, 0.3, Border::Black).map(|_| ())
+        })?;
+        time("style", &mut |d, r| {
+            style_randomize(&img, d, &StyleParams { strength: 1.0 }, r)
+        })?;
         time("brightness", &mut |d, _| adjust_brightness(&img, d, 1.2))?;
         time("contrast", &mut |d, _| adjust_contrast(&img, d, 1.2))?;
         time("gamma", &mut |d, _| adjust_gamma(&img, d, 1.2))?;
         time("colour", &mut |d, _| adjust_color(&img, d, 1.2, 0.1))?;
         time("blur 1.0", &mut |d, _| gaussian_blur(&img, d, 1.0))?;
         time("noise", &mut |d, r| add_gaussian_noise(&img, d, 5.0, r))?;
-        let ep = EraseParams { count: 2, area_fraction: 0.1, aspect: [0.5, 2.0], fill: EraseFill::Noise };
-        time("erase", &mut |d, r| random_erase(&img, d, &ep, r).map(|_| ()))?;
+        let ep = EraseParams {
+            count: 2,
+            area_fraction: 0.1,
+            aspect: [0.5, 2.0],
+            fill: EraseFill::Noise,
+        };
+        time("erase", &mut |d, r| {
+            random_erase(&img, d, &ep, r).map(|_| ())
+        })?;
         Ok(())
     }
 
@@ -1016,7 +1050,10 @@ mod tests {
                 tiles.push(augment(src, &cfg, seed)?.0);
             }
             for (i, tile) in tiles.iter().enumerate() {
-                let (c, r) = (i as u32 % cols, i as u32 / cols + s as u32 * rows_per_source);
+                let (c, r) = (
+                    i as u32 % cols,
+                    i as u32 / cols + s as u32 * rows_per_source,
+                );
                 imageops::replace(&mut sheet, tile, i64::from(c * tw), i64::from(r * th));
             }
         }

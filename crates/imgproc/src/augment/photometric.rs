@@ -187,8 +187,11 @@ pub(crate) fn apply_color_matrix(src: &[u8], dst: &mut [u8], m: &[[f32; 3]; 3]) 
 }
 
 /// Scales colour saturation by `saturation` (≥ 0; 0 gives grey, 1 unchanged) and shifts hue by
-/// `hue` radians, keeping BT.601 luma (up to clamping). See the YIQ note on the crate's choice in
-/// the source: one matrix per image, no per-pixel HSV conversion.
+/// `hue` radians (positive: red towards yellow), keeping BT.601 luma up to clamping.
+///
+/// Both are one 3×3 matrix in YIQ space (scale and turn the chroma plane), so the cost is a
+/// matrix product per pixel rather than an HSV round trip; the hue turn agrees with an HSV hue
+/// shift to within a few degrees.
 pub fn adjust_color(src: &RgbImage, dst: &mut RgbImage, saturation: f64, hue: f64) -> Result<()> {
     same_size(src, dst)?;
     let m = color_matrix(saturation, hue)?;
@@ -278,7 +281,12 @@ pub fn add_gaussian_noise<P: Pixel<Subpixel = u8>, R: Rng + ?Sized>(
     Ok(())
 }
 
-pub(crate) fn add_noise_slice<R: Rng + ?Sized>(src: &[u8], dst: &mut [u8], sigma: f32, rng: &mut R) {
+pub(crate) fn add_noise_slice<R: Rng + ?Sized>(
+    src: &[u8],
+    dst: &mut [u8],
+    sigma: f32,
+    rng: &mut R,
+) {
     let table = normal_table();
     // Five 12-bit table indices from every 64 random bits.
     for (o, i) in dst.chunks_mut(5).zip(src.chunks(5)) {
@@ -551,7 +559,10 @@ mod tests {
             assert!(monotone(&dst), "gamma {g}");
             assert_eq!((dst.get_pixel(0, 0)[0], dst.get_pixel(255, 0)[0]), (0, 255));
             let mid = dst.get_pixel(128, 0)[0];
-            assert!(if g < 1.0 { mid > 128 } else { mid <= 128 }, "gamma {g}: {mid}");
+            assert!(
+                if g < 1.0 { mid > 128 } else { mid <= 128 },
+                "gamma {g}: {mid}"
+            );
         }
         adjust_brightness(&src, &mut dst, 1.0)?;
         assert_eq!(dst, src);
@@ -578,7 +589,10 @@ mod tests {
         for (s, d) in src.pixels().zip(dst.pixels()) {
             let luma = 0.299 * f64::from(s[0]) + 0.587 * f64::from(s[1]) + 0.114 * f64::from(s[2]);
             for c in 0..3 {
-                assert!((f64::from(d[c]) - luma).abs() <= 1.0, "grey at saturation 0");
+                assert!(
+                    (f64::from(d[c]) - luma).abs() <= 1.0,
+                    "grey at saturation 0"
+                );
             }
         }
         // A hue shift of +30° moves a (soft, so nothing clamps) red towards yellow: green rises
@@ -588,7 +602,9 @@ mod tests {
         adjust_color(&red, &mut out, 1.0, 30f64.to_radians())?;
         let p = out.get_pixel(0, 0);
         assert!(p[1] > p[2] + 20 && p[0] > p[1], "{p:?}");
-        let luma = |p: &Rgb<u8>| 0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2]);
+        let luma = |p: &Rgb<u8>| {
+            0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2])
+        };
         assert!((luma(p) - luma(red.get_pixel(0, 0))).abs() < 1.0, "{p:?}");
         Ok(())
     }
@@ -630,7 +646,10 @@ mod tests {
         let flat = GrayImage::from_pixel(5, 3, Luma([77]));
         let mut out = GrayImage::new(5, 3);
         gaussian_blur(&flat, &mut out, 4.0)?;
-        assert_eq!(out, flat, "a flat image stays flat, even with a kernel wider than it");
+        assert_eq!(
+            out, flat,
+            "a flat image stays flat, even with a kernel wider than it"
+        );
         Ok(())
     }
 
@@ -639,7 +658,11 @@ mod tests {
         let src = RgbImage::from_pixel(200, 100, Rgb([1, 2, 3]));
         let mut dst = RgbImage::new(200, 100);
         let mut rng = ChaCha8Rng::seed_from_u64(11);
-        for (fraction, fill) in [(0.25, EraseFill::Color), (0.1, EraseFill::Noise), (1.0, EraseFill::Color)] {
+        for (fraction, fill) in [
+            (0.25, EraseFill::Color),
+            (0.1, EraseFill::Noise),
+            (1.0, EraseFill::Color),
+        ] {
             for _ in 0..10 {
                 let params = EraseParams {
                     count: 1,
@@ -648,9 +671,16 @@ mod tests {
                     fill,
                 };
                 let rects = random_erase(&src, &mut dst, &params, &mut rng)?;
-                let changed = src.pixels().zip(dst.pixels()).filter(|(a, b)| a != b).count();
+                let changed = src
+                    .pixels()
+                    .zip(dst.pixels())
+                    .filter(|(a, b)| a != b)
+                    .count();
                 let covered = changed as f64 / 20_000.0;
-                assert!((covered - fraction).abs() < 0.01, "{fraction}: covered {covered}");
+                assert!(
+                    (covered - fraction).abs() < 0.01,
+                    "{fraction}: covered {covered}"
+                );
                 let r = rects[0];
                 assert!(r.x + r.w <= 200 && r.y + r.h <= 100);
             }
@@ -663,8 +693,15 @@ mod tests {
         };
         let rects = random_erase(&src, &mut dst, &params, &mut rng)?;
         assert_eq!(rects.len(), 4);
-        let changed = src.pixels().zip(dst.pixels()).filter(|(a, b)| a != b).count();
-        assert!(changed as f64 <= 0.2 * 20_000.0 * 1.02, "overlaps only lower the cover");
+        let changed = src
+            .pixels()
+            .zip(dst.pixels())
+            .filter(|(a, b)| a != b)
+            .count();
+        assert!(
+            changed as f64 <= 0.2 * 20_000.0 * 1.02,
+            "overlaps only lower the cover"
+        );
         Ok(())
     }
 

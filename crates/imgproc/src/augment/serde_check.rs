@@ -115,7 +115,9 @@ impl ser::Serializer for Ser {
         Ok(Value::Str(v.to_owned()))
     }
     fn serialize_bytes(self, v: &[u8]) -> Result<Value, Error> {
-        Ok(Value::Seq(v.iter().map(|&b| Value::U64(b.into())).collect()))
+        Ok(Value::Seq(
+            v.iter().map(|&b| Value::U64(b.into())).collect(),
+        ))
     }
     fn serialize_none(self) -> Result<Value, Error> {
         Ok(Value::Unit)
@@ -304,7 +306,9 @@ impl<'de> de::Deserializer<'de> for Value {
     ) -> Result<V::Value, Error> {
         match self {
             Value::Str(s) => visitor.visit_enum(IntoDeserializer::<Error>::into_deserializer(s)),
-            other => Err(Error(format!("expected a unit variant name, got {other:?}"))),
+            other => Err(Error(format!(
+                "expected a unit variant name, got {other:?}"
+            ))),
         }
     }
 

@@ -105,7 +105,8 @@ const TONE_KNOTS: usize = 8;
 /// identity when all slopes are equal (strength 0).
 fn tone_curve<R: Rng + ?Sized>(strength: f64, rng: &mut R) -> [f32; 256] {
     let spread = strength * 3f64.ln();
-    let slopes: [f64; TONE_KNOTS] = std::array::from_fn(|_| (spread * uniform(rng, -1.0, 1.0)).exp());
+    let slopes: [f64; TONE_KNOTS] =
+        std::array::from_fn(|_| (spread * uniform(rng, -1.0, 1.0)).exp());
     let slope_at = |v: f64| {
         let u = v / 255.0 * TONE_KNOTS as f64 - 0.5;
         if u <= 0.0 {
@@ -249,7 +250,9 @@ pub(crate) fn style_slice<R: Rng + ?Sized>(
         }
     }
     // 3: one common scale so the widest channel fits, a random contrast cut, random offsets.
-    let widest = (0..cn).map(|c| f64::from(hi[c] - lo[c])).fold(0.0, f64::max);
+    let widest = (0..cn)
+        .map(|c| f64::from(hi[c] - lo[c]))
+        .fold(0.0, f64::max);
     let k = 1.0 / widest.max(1.0) * (1.0 - 0.4 * strength * rng.random::<f64>());
     let offsets: Vec<f32> = (0..cn)
         .map(|c| {
@@ -415,7 +418,9 @@ mod tests {
 
     #[test]
     fn grey_images_are_restyled_too() -> Result<()> {
-        let src = GrayImage::from_fn(60, 40, |x, y| Luma([if x > 30 { 200 } else { 50 + y as u8 }]));
+        let src = GrayImage::from_fn(60, 40, |x, y| {
+            Luma([if x > 30 { 200 } else { 50 + y as u8 }])
+        });
         let mut dst = GrayImage::new(60, 40);
         let mut rng = ChaCha8Rng::seed_from_u64(4);
         style_randomize(&src, &mut dst, &StyleParams { strength: 1.0 }, &mut rng)?;
@@ -440,6 +445,8 @@ mod tests {
             assert!(style_randomize(&src, &mut dst, &StyleParams { strength }, &mut rng).is_err());
         }
         let mut small = RgbImage::new(8, 4);
-        assert!(style_randomize(&src, &mut small, &StyleParams { strength: 0.5 }, &mut rng).is_err());
+        assert!(
+            style_randomize(&src, &mut small, &StyleParams { strength: 0.5 }, &mut rng).is_err()
+        );
     }
 }

@@ -97,6 +97,10 @@ pub fn intersection(a: &[f64; 64], b: &[f64; 64]) -> f64 {
 pub fn mean_var(bytes: &[u8]) -> (f64, f64) {
     let n = bytes.len() as f64;
     let m = bytes.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
-    let v = bytes.iter().map(|&v| (f64::from(v) - m).powi(2)).sum::<f64>() / n;
+    let v = bytes
+        .iter()
+        .map(|&v| (f64::from(v) - m).powi(2))
+        .sum::<f64>()
+        / n;
     (m, v)
 }

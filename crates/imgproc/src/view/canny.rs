@@ -136,7 +136,11 @@ mod tests {
     fn finds_the_outline_of_a_square() -> Result<()> {
         // A bright 10x10 square on a dark 30x30 field.
         let src = GrayImage::from_fn(30, 30, |x, y| {
-            image::Luma([if (10..20).contains(&x) && (10..20).contains(&y) { 200 } else { 30 }])
+            image::Luma([if (10..20).contains(&x) && (10..20).contains(&y) {
+                200
+            } else {
+                30
+            }])
         });
         let mut dst = GrayImage::new(30, 30);
         canny(&src, &mut dst, 50.0, 150.0)?;

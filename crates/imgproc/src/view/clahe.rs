@@ -19,8 +19,9 @@
 //!    rounded to `f32` (no fused multiply-add), then rounded ties-to-even.
 //!
 //! The interpolation walks each row in runs of columns that share the same pair of tiles, so the
-//! four LUT look-ups index `[u8; 256]` arrays by a `u8` and need no bounds checks; the gathered
-//! values are then blended in one pass over the row that the compiler vectorises.
+//! four LUT values of a pixel come from one look-up in a table of packed `u32` built per band of
+//! rows; the gathered values are then blended in one pass over the row that the compiler
+//! vectorises.
 
 use image::GrayImage;
 
@@ -42,8 +43,10 @@ pub(crate) struct ClaheScratch {
     /// Column runs `(start, end, tile_x1, tile_x2)` sharing one pair of tiles.
     runs: Vec<(usize, usize, usize, usize)>,
     xmap: Vec<usize>,
-    /// The four LUT values of each pixel of a row, gathered before blending.
-    gathered: Vec<u8>,
+    /// Per column run, 256 packed `u32` of the four LUTs of the current band of rows.
+    band: Vec<u32>,
+    /// The packed LUT values of each pixel of a row, gathered before blending.
+    packed: Vec<u32>,
 }
 
 /// Checks CLAHE parameters (shared with the spec's validation).
@@ -129,29 +132,43 @@ pub(crate) fn clahe_with(
 /// 256-bin histogram of the `tw x th` tile at `(x0, y0)` of an image `stride` pixels wide.
 ///
 /// Four partial histograms take the pixels in turn: flat regions would otherwise increment the
-/// same counter back to back and wait on each store.
+/// same counter back to back and wait on each store. They are `u16` (half the memory to clear
+/// per tile) whenever a tile has fewer than 2^16 pixels.
 fn tile_histogram(
     img: &[u8],
     stride: usize,
     (x0, y0): (usize, usize),
     (tw, th): (usize, usize),
 ) -> [u32; 256] {
-    let mut part = [[0u32; 256]; 4];
-    for row in img.chunks_exact(stride).skip(y0).take(th) {
-        let mut quads = row[x0..x0 + tw].chunks_exact(4);
-        for q in &mut quads {
-            part[0][q[0] as usize] += 1;
-            part[1][q[1] as usize] += 1;
-            part[2][q[2] as usize] += 1;
-            part[3][q[3] as usize] += 1;
-        }
-        for &v in quads.remainder() {
-            part[0][v as usize] += 1;
-        }
-    }
+    let rows = img
+        .chunks_exact(stride)
+        .skip(y0)
+        .take(th)
+        .map(|row| &row[x0..x0 + tw]);
     let mut hist = [0u32; 256];
-    for (i, h) in hist.iter_mut().enumerate() {
-        *h = part[0][i] + part[1][i] + part[2][i] + part[3][i];
+    if tw * th < 1 << 16 {
+        let mut part = [[0u16; 256]; 4];
+        for row in rows {
+            let mut quads = row.chunks_exact(4);
+            for q in &mut quads {
+                part[0][q[0] as usize] += 1;
+                part[1][q[1] as usize] += 1;
+                part[2][q[2] as usize] += 1;
+                part[3][q[3] as usize] += 1;
+            }
+            for &v in quads.remainder() {
+                part[0][v as usize] += 1;
+            }
+        }
+        for (i, h) in hist.iter_mut().enumerate() {
+            *h = part[0][i] as u32 + part[1][i] as u32 + part[2][i] as u32 + part[3][i] as u32;
+        }
+    } else {
+        for row in rows {
+            for &v in row {
+                hist[v as usize] += 1;
+            }
+        }
     }
     hist
 }
@@ -170,8 +187,9 @@ fn clip_histogram(hist: &mut [u32; 256], limit: u32) {
     for c in hist.iter_mut() {
         *c += batch;
     }
-    if residual != 0 {
-        let step = (256 / residual).max(1) as usize;
+    // OpenCV spreads the remainder one count at a time with a stride of 256 / residual.
+    if let Some(stride) = 256u32.checked_div(residual) {
+        let step = stride.max(1) as usize;
         let mut i = 0;
         while i < 256 && residual > 0 {
             hist[i] += 1;
@@ -249,36 +267,66 @@ fn interpolate(
             _ => scratch.runs.push((x, x + 1, t1, t2)),
         }
     }
-    scratch.gathered.resize(4 * w, 0);
+    // For the current band of rows (one pair of tile rows), each column run gets one table of
+    // 256 `u32` holding its four LUT values side by side: one look-up per pixel instead of four.
+    let runs = &scratch.runs;
+    scratch.band.resize(runs.len() * 256, 0);
+    scratch.packed.resize(w, 0);
     let luts = &scratch.luts;
-    let (g11, rest) = scratch.gathered.split_at_mut(w);
-    let (g12, rest) = rest.split_at_mut(w);
-    let (g21, g22) = rest.split_at_mut(w);
-    for (y, (srow, drow)) in src.chunks_exact(w).zip(dst.chunks_exact_mut(w)).take(h).enumerate() {
+    let mut band_rows = None;
+    for (y, (srow, drow)) in src
+        .chunks_exact(w)
+        .zip(dst.chunks_exact_mut(w))
+        .take(h)
+        .enumerate()
+    {
         let (ty1, ty2, ya) = tile_coord(y, inv_th, t);
         let ya1 = 1.0f32 - ya;
-        // Gather the four LUT values of every pixel (table look-ups do not vectorise) ...
-        for &(start, end, tx1, tx2) in &scratch.runs {
-            let (l11, l12) = (&luts[ty1 * t + tx1], &luts[ty1 * t + tx2]);
-            let (l21, l22) = (&luts[ty2 * t + tx1], &luts[ty2 * t + tx2]);
-            let cols = srow[start..end].iter().zip(
-                g11[start..end]
-                    .iter_mut()
-                    .zip(&mut g12[start..end])
-                    .zip(g21[start..end].iter_mut().zip(&mut g22[start..end])),
-            );
-            for (&v, ((a, b), (c, d))) in cols {
-                let v = v as usize;
-                (*a, *b, *c, *d) = (l11[v], l12[v], l21[v], l22[v]);
+        if band_rows != Some((ty1, ty2)) {
+            for (table, &(_, _, tx1, tx2)) in scratch.band.chunks_exact_mut(256).zip(runs) {
+                let quad = [
+                    &luts[ty1 * t + tx1],
+                    &luts[ty1 * t + tx2],
+                    &luts[ty2 * t + tx1],
+                    &luts[ty2 * t + tx2],
+                ];
+                for (v, q) in table.iter_mut().enumerate() {
+                    *q = u32::from_le_bytes([quad[0][v], quad[1][v], quad[2][v], quad[3][v]]);
+                }
+            }
+            band_rows = Some((ty1, ty2));
+        }
+        for (table, &(start, end, _, _)) in scratch.band.chunks_exact(256).zip(runs) {
+            let Ok(table) = <&[u32; 256]>::try_from(table) else {
+                continue;
+            };
+            for (q, &v) in scratch.packed[start..end].iter_mut().zip(&srow[start..end]) {
+                *q = table[v as usize];
             }
         }
-        // ... then blend the whole row with OpenCV's f32 formula, which does.
-        let weights = scratch.xa[..w].iter().zip(&scratch.xa1[..w]);
-        let values = g11.iter().zip(g12.iter()).zip(g21.iter().zip(g22.iter()));
-        for ((d, (&xa, &xa1)), ((&a, &b), (&c, &e))) in drow.iter_mut().zip(weights).zip(values) {
-            let res = (a as f32 * xa1 + b as f32 * xa) * ya1 + (c as f32 * xa1 + e as f32 * xa) * ya;
-            *d = round_u8(res);
-        }
+        blend_row(
+            drow,
+            (&scratch.xa[..w], &scratch.xa1[..w]),
+            (ya, ya1),
+            &scratch.packed[..w],
+        );
+    }
+}
+
+/// `dst[i] = round((l11 * xa1 + l12 * xa) * ya1 + (l21 * xa1 + l22 * xa) * ya)` in `f32`, in
+/// OpenCV's order of operations, with `l11..l22` the bytes of `packed[i]`. Indexed over
+/// equal-length slices so that it vectorises.
+#[inline]
+fn blend_row(dst: &mut [u8], (xa, xa1): (&[f32], &[f32]), (ya, ya1): (f32, f32), packed: &[u32]) {
+    let n = dst.len();
+    let (xa, xa1, packed) = (&xa[..n], &xa1[..n], &packed[..n]);
+    for i in 0..n {
+        let q = packed[i];
+        let (l11, l12) = ((q & 0xff) as f32, ((q >> 8) & 0xff) as f32);
+        let (l21, l22) = (((q >> 16) & 0xff) as f32, (q >> 24) as f32);
+        let top = l11 * xa1[i] + l12 * xa[i];
+        let bottom = l21 * xa1[i] + l22 * xa[i];
+        dst[i] = round_u8(top * ya1 + bottom * ya);
     }
 }
 
@@ -319,7 +367,11 @@ mod tests {
         let mut dst = GrayImage::new(16, 16);
         clahe(&src, &mut dst, 2.0, 2)?;
         let expect = (27.0f32 * (255.0f32 / 64.0)).round() as u8;
-        assert!(dst.pixels().all(|p| p.0[0] == expect), "{:?}", dst.get_pixel(0, 0));
+        assert!(
+            dst.pixels().all(|p| p.0[0] == expect),
+            "{:?}",
+            dst.get_pixel(0, 0)
+        );
         Ok(())
     }
 

@@ -109,8 +109,12 @@ pub(crate) fn derivatives(
         let out_y = &mut gy[y * w..(y + 1) * w];
         for (x, (&(xm, xp), (dx, dy))) in xn.iter().zip(out_x.iter_mut().zip(out_y)).enumerate() {
             let p = |r: &[u8], i: usize| r[i] as i32;
-            *dx = o * (p(rm, xp) - p(rm, xm)) + c * (p(rc, xp) - p(rc, xm)) + o * (p(rp, xp) - p(rp, xm));
-            *dy = o * (p(rp, xm) - p(rm, xm)) + c * (p(rp, x) - p(rm, x)) + o * (p(rp, xp) - p(rm, xp));
+            *dx = o * (p(rm, xp) - p(rm, xm))
+                + c * (p(rc, xp) - p(rc, xm))
+                + o * (p(rp, xp) - p(rp, xm));
+            *dy = o * (p(rp, xm) - p(rm, xm))
+                + c * (p(rp, x) - p(rm, x))
+                + o * (p(rp, xp) - p(rm, xp));
         }
     }
 }

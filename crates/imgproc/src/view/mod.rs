@@ -384,10 +384,23 @@ mod tests {
     #[test]
     fn errors_not_panics() -> Result<()> {
         let img = DynamicImage::ImageRgb8(photo(32, 24));
-        assert!("center-crop=33x10".parse::<ViewSpec>()?.apply(&img, 0).is_err());
-        assert!("random-crop=10x25".parse::<ViewSpec>()?.apply(&img, 0).is_err());
+        assert!(
+            "center-crop=33x10"
+                .parse::<ViewSpec>()?
+                .apply(&img, 0)
+                .is_err()
+        );
+        assert!(
+            "random-crop=10x25"
+                .parse::<ViewSpec>()?
+                .apply(&img, 0)
+                .is_err()
+        );
         let bad = ViewSpec {
-            ops: vec![Op::Clahe { clip: 2.0, tiles: 8 }],
+            ops: vec![Op::Clahe {
+                clip: 2.0,
+                tiles: 8,
+            }],
         };
         assert!(bad.apply(&img, 0).is_err());
         let empty = DynamicImage::ImageRgb8(RgbImage::new(0, 0));
@@ -416,7 +429,10 @@ mod tests {
             let v = ViewSpec::preset(name)?.apply(&img, 0)?;
             assert_eq!((v.channels, v.width, v.height), shape, "{name}");
             assert_eq!(v.data.len(), (shape.0 * shape.1 * shape.2) as usize);
-            assert!(v.data.iter().all(|&x| x >= lo && x <= hi), "{name} out of range");
+            assert!(
+                v.data.iter().all(|&x| x >= lo && x <= hi),
+                "{name} out of range"
+            );
         }
         Ok(())
     }

@@ -131,7 +131,11 @@ impl View {
             )));
         }
         let mut data = vec![0.0f32; plane * channels];
-        for (c, out) in data.chunks_exact_mut(plane.max(1)).enumerate().take(channels) {
+        for (c, out) in data
+            .chunks_exact_mut(plane.max(1))
+            .enumerate()
+            .take(channels)
+        {
             let table: Vec<f32> = (0..=255u8)
                 .map(|v| match norm {
                     None => v as f32 / 255.0,
@@ -182,13 +186,15 @@ impl View {
         let size_err = || ImgprocError::Size(format!("view {}x{}", self.width, self.height));
         match c {
             1 => {
-                let img: GrayImage = ImageBuffer::<Luma<u8>, _>::from_raw(self.width, self.height, raw)
-                    .ok_or_else(size_err)?;
+                let img: GrayImage =
+                    ImageBuffer::<Luma<u8>, _>::from_raw(self.width, self.height, raw)
+                        .ok_or_else(size_err)?;
                 Ok(DynamicImage::ImageLuma8(img))
             }
             3 => {
-                let img: RgbImage = ImageBuffer::<Rgb<u8>, _>::from_raw(self.width, self.height, raw)
-                    .ok_or_else(size_err)?;
+                let img: RgbImage =
+                    ImageBuffer::<Rgb<u8>, _>::from_raw(self.width, self.height, raw)
+                        .ok_or_else(size_err)?;
                 Ok(DynamicImage::ImageRgb8(img))
             }
             _ => Err(ImgprocError::Param(format!(
@@ -236,7 +242,12 @@ mod tests {
             let rgb: Vec<u8> = raw.iter().flat_map(|&v| [v, 255 - v, v / 2]).collect();
             let v = View::from_u8(&rgb, 3, (16, 16), norm.as_ref())?;
             assert_eq!(v.to_image()?.to_rgb8().into_raw(), rgb, "{norm:?}");
-            let v = View::from_u8(&raw, 1, (256, 1), norm.as_ref().filter(|n| **n == Norm::MinusOneOne))?;
+            let v = View::from_u8(
+                &raw,
+                1,
+                (256, 1),
+                norm.as_ref().filter(|n| **n == Norm::MinusOneOne),
+            )?;
             assert_eq!(v.to_image()?.to_luma8().into_raw(), raw);
         }
         Ok(())

@@ -18,16 +18,24 @@ type TestResult = std::result::Result<(), Box<dyn Error>>;
 const PERMITTED: &[(&str, &str)] = &[
     ("left01", "data/chessboard_9x6_left/left01.jpg"),
     ("img_00", "data/aruco_real/img_00.jpg"),
-    ("singlemarkersoriginal", "data/aruco_real/singlemarkersoriginal.jpg"),
+    (
+        "singlemarkersoriginal",
+        "data/aruco_real/singlemarkersoriginal.jpg",
+    ),
     ("gboriginal", "data/aruco_real/gboriginal.png"),
     ("diamondmarkers", "data/aruco_real/diamondmarkers.png"),
     ("room_01", "tools/peers/testdata/images/room_01.jpg"),
-    ("room_02_dark", "tools/peers/testdata/images/room_02_dark.jpg"),
+    (
+        "room_02_dark",
+        "tools/peers/testdata/images/room_02_dark.jpg",
+    ),
     ("corridor_03", "tools/peers/testdata/images/corridor_03.png"),
 ];
 
 fn data(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(rel)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(rel)
 }
 
 /// The shared checkout (`../shared` from the workspace root), if present.
@@ -66,7 +74,11 @@ fn view_clahe_alone_matches_opencv_on_real_photos() -> TestResult {
         let mut out = GrayImage::new(input.width(), input.height());
         clahe(&input, &mut out, 2.0, 8)?;
         let (same, within1, max) = agreement(&out, &expect);
-        println!("clahe alone {stem}: identical {:.4} %, within 1: {:.4} %, max {max}", same * 100.0, within1 * 100.0);
+        println!(
+            "clahe alone {stem}: identical {:.4} %, within 1: {:.4} %, max {max}",
+            same * 100.0,
+            within1 * 100.0
+        );
         assert!(within1 >= 0.99, "{stem}: only {within1} within one level");
         assert_eq!(out, expect, "{stem}: not bit-identical");
         total.0 += out.len();
@@ -89,9 +101,17 @@ fn view_from_opencv_decoded_pixels_is_bit_identical() -> TestResult {
     let mut scratch = Scratch::new();
     let mut small = GrayImage::new(160, 120);
     gray_resize_with(&src, &mut small, &mut scratch)?;
-    assert_eq!(small, gray(&data("clahe/img_00.gray.png"))?, "grey + INTER_AREA");
+    assert_eq!(
+        small,
+        gray(&data("clahe/img_00.gray.png"))?,
+        "grey + INTER_AREA"
+    );
     let view = gray_clahe_view(&src, 160, 120, 2.0, 8, &mut scratch)?;
-    assert_eq!(view, gray(&data("clahe/img_00.clahe.png"))?, "grey + INTER_AREA + CLAHE");
+    assert_eq!(
+        view,
+        gray(&data("clahe/img_00.clahe.png"))?,
+        "grey + INTER_AREA + CLAHE"
+    );
     let spec_view = ViewSpec::preset("gray160")?.apply(&DynamicImage::ImageRgb8(src), 0)?;
     assert_eq!(spec_view.to_image()?.to_luma8(), view);
     Ok(())
@@ -110,7 +130,11 @@ fn view_whole_pipeline_from_png_photos_is_bit_identical() -> TestResult {
         let out = view.to_image()?.to_luma8();
         let expect = gray(&data(&format!("clahe/{stem}.clahe.png")))?;
         let (same, within1, max) = agreement(&out, &expect);
-        println!("whole view (PNG) {stem}: identical {:.4} %, within 1 {:.4} %, max {max}", same * 100.0, within1 * 100.0);
+        println!(
+            "whole view (PNG) {stem}: identical {:.4} %, within 1 {:.4} %, max {max}",
+            same * 100.0,
+            within1 * 100.0
+        );
         assert_eq!(out, expect, "{stem}");
     }
     Ok(())
@@ -129,16 +153,27 @@ fn view_whole_pipeline_from_jpegs_agreement() -> TestResult {
     let (mut n, mut same_n, mut within1_n) = (0usize, 0.0, 0.0);
     for (stem, rel) in PERMITTED.iter().filter(|(_, rel)| rel.ends_with(".jpg")) {
         let img = image::open(shared.join(rel))?;
-        let out = ViewSpec::preset("gray160")?.apply_with(&img, 0, &mut scratch)?.to_image()?.to_luma8();
+        let out = ViewSpec::preset("gray160")?
+            .apply_with(&img, 0, &mut scratch)?
+            .to_image()?
+            .to_luma8();
         let expect = gray(&data(&format!("clahe/{stem}.clahe.png")))?;
         let (same, within1, max) = agreement(&out, &expect);
-        println!("whole view (JPEG) {stem}: identical {:.2} %, within 1 {:.2} %, max {max}", same * 100.0, within1 * 100.0);
+        println!(
+            "whole view (JPEG) {stem}: identical {:.2} %, within 1 {:.2} %, max {max}",
+            same * 100.0,
+            within1 * 100.0
+        );
         n += out.len();
         same_n += same * out.len() as f64;
         within1_n += within1 * out.len() as f64;
     }
     let (same, within1) = (same_n / n as f64, within1_n / n as f64);
-    println!("whole view (JPEG), all: identical {:.2} %, within 1 {:.2} %", same * 100.0, within1 * 100.0);
+    println!(
+        "whole view (JPEG), all: identical {:.2} %, within 1 {:.2} %",
+        same * 100.0,
+        within1 * 100.0
+    );
     assert!(within1 >= 0.95, "within-1 agreement fell to {within1}");
     Ok(())
 }
@@ -150,13 +185,30 @@ fn view_area_resize_matches_opencv() -> TestResult {
     let mut ours = GrayImage::new(src.width(), src.height());
     rgb_to_gray(&src, &mut ours)?;
     assert_eq!(ours, src_gray, "grey conversion");
-    for (w, h) in [(160, 120), (77, 53), (64, 48), (100, 75), (40, 30), (50, 50), (200, 75), (33, 150)] {
+    for (w, h) in [
+        (160, 120),
+        (77, 53),
+        (64, 48),
+        (100, 75),
+        (40, 30),
+        (50, 50),
+        (200, 75),
+        (33, 150),
+    ] {
         let mut g = GrayImage::new(w, h);
         resize_gray(&src_gray, &mut g)?;
-        assert_eq!(g, gray(&data(&format!("ops/area_{w}x{h}.gray.png")))?, "gray {w}x{h}");
+        assert_eq!(
+            g,
+            gray(&data(&format!("ops/area_{w}x{h}.gray.png")))?,
+            "gray {w}x{h}"
+        );
         let mut c = RgbImage::new(w, h);
         resize_rgb(&src, &mut c)?;
-        assert_eq!(c, rgb(&data(&format!("ops/area_{w}x{h}.rgb.png")))?, "rgb {w}x{h}");
+        assert_eq!(
+            c,
+            rgb(&data(&format!("ops/area_{w}x{h}.rgb.png")))?,
+            "rgb {w}x{h}"
+        );
     }
     Ok(())
 }
@@ -188,21 +240,34 @@ fn view_equalize_matches_opencv() -> TestResult {
         let input = gray(&data(&format!("clahe/{stem}.gray.png")))?;
         let mut out = GrayImage::new(input.width(), input.height());
         equalize(&input, &mut out)?;
-        assert_eq!(out, gray(&data(&format!("ops/{stem}.equalize.png")))?, "{stem}");
+        assert_eq!(
+            out,
+            gray(&data(&format!("ops/{stem}.equalize.png")))?,
+            "{stem}"
+        );
     }
     Ok(())
 }
 
 #[test]
 fn view_canny_agreement_with_opencv() -> TestResult {
-    for (stem, lo, hi) in [("img_00", 50, 150), ("gboriginal", 50, 150), ("room_01", 20, 60), ("left01", 100, 200)] {
+    for (stem, lo, hi) in [
+        ("img_00", 50, 150),
+        ("gboriginal", 50, 150),
+        ("room_01", 20, 60),
+        ("left01", 100, 200),
+    ] {
         let input = gray(&data(&format!("clahe/{stem}.gray.png")))?;
         let expect = gray(&data(&format!("ops/{stem}.canny_{lo}_{hi}.png")))?;
         let mut out = GrayImage::new(input.width(), input.height());
         canny(&input, &mut out, lo as f32, hi as f32)?;
         let (same, _, _) = agreement(&out, &expect);
         let edges = expect.iter().filter(|&&v| v == 255).count();
-        let both = out.iter().zip(expect.iter()).filter(|(a, b)| **a == 255 && **b == 255).count();
+        let both = out
+            .iter()
+            .zip(expect.iter())
+            .filter(|(a, b)| **a == 255 && **b == 255)
+            .count();
         println!(
             "canny {stem} {lo}/{hi}: pixels agree {:.3} %, OpenCV edges found {both}/{edges}",
             same * 100.0
@@ -214,7 +279,10 @@ fn view_canny_agreement_with_opencv() -> TestResult {
 
 /// Timing of `f` over `n` runs: (median, minimum) in ms. The minimum is the figure least
 /// disturbed by other load on the machine.
-fn time_ms(n: usize, mut f: impl FnMut() -> Result<()>) -> std::result::Result<(f64, f64), Box<dyn Error>> {
+fn time_ms(
+    n: usize,
+    mut f: impl FnMut() -> Result<()>,
+) -> std::result::Result<(f64, f64), Box<dyn Error>> {
     let mut t = Vec::with_capacity(n);
     for _ in 0..n {
         let start = Instant::now();
@@ -231,7 +299,8 @@ fn time_ms(n: usize, mut f: impl FnMut() -> Result<()>) -> std::result::Result<(
 #[test]
 #[ignore = "timing; run in release mode"]
 fn view_timing_640x480() -> TestResult {
-    let path = std::env::var("VIEW_BENCH_IMAGE").map_or_else(|_| data("clahe/img_00.rgb.png"), PathBuf::from);
+    let path = std::env::var("VIEW_BENCH_IMAGE")
+        .map_or_else(|_| data("clahe/img_00.rgb.png"), PathBuf::from);
     let src = rgb(&path)?;
     let img = DynamicImage::ImageRgb8(src.clone());
     let mut scratch = Scratch::new();
@@ -239,17 +308,28 @@ fn view_timing_640x480() -> TestResult {
     for _ in 0..50 {
         gray_clahe_view_into(&src, &mut out, 2.0, 8, &mut scratch)?;
     }
-    let fast = time_ms(1000, || gray_clahe_view_into(&src, &mut out, 2.0, 8, &mut scratch))?;
+    let fast = time_ms(1000, || {
+        gray_clahe_view_into(&src, &mut out, 2.0, 8, &mut scratch)
+    })?;
     let gray160 = ViewSpec::preset("gray160")?;
-    let spec = time_ms(1000, || gray160.apply_with(&img, 0, &mut scratch).map(|_| ()))?;
+    let spec = time_ms(1000, || {
+        gray160.apply_with(&img, 0, &mut scratch).map(|_| ())
+    })?;
     let mut small = GrayImage::new(160, 120);
     let resize_only = time_ms(1000, || gray_resize_with(&src, &mut small, &mut scratch))?;
-    let clahe_only = time_ms(1000, || clahe_with(&small, &mut out, 2.0, 8, &mut scratch.clahe))?;
+    let clahe_only = time_ms(1000, || {
+        clahe_with(&small, &mut out, 2.0, 8, &mut scratch.clahe)
+    })?;
     let rgb256 = ViewSpec::preset("rgb256")?;
     let r256 = time_ms(200, || rgb256.apply_rgb(&src, 0, &mut scratch).map(|_| ()))?;
     let mut r = RgbImage::new(256, 256);
     let r256_resize = time_ms(200, || resize_rgb_with(&src, &mut r, &mut scratch.area))?;
-    println!("image {} ({}x{}); ms per image as (median, min), one thread", path.display(), src.width(), src.height());
+    println!(
+        "image {} ({}x{}); ms per image as (median, min), one thread",
+        path.display(),
+        src.width(),
+        src.height()
+    );
     println!("gray160 fast path gray_clahe_view_into: {fast:.4?}");
     println!("  of which grey+INTER_AREA {resize_only:.4?}, CLAHE {clahe_only:.4?}");
     println!("gray160 via ViewSpec::apply_with (incl. f32 tensor): {spec:.4?}");
@@ -264,7 +344,8 @@ fn view_timing_640x480() -> TestResult {
 #[test]
 #[ignore = "writes files named by environment variables"]
 fn view_write_gray160() -> TestResult {
-    let (Ok(images), Ok(out)) = (std::env::var("VIEW_IMAGES"), std::env::var("VIEW_OUT_DIR")) else {
+    let (Ok(images), Ok(out)) = (std::env::var("VIEW_IMAGES"), std::env::var("VIEW_OUT_DIR"))
+    else {
         println!("set VIEW_IMAGES and VIEW_OUT_DIR");
         return Ok(());
     };
@@ -272,9 +353,13 @@ fn view_write_gray160() -> TestResult {
     let spec = ViewSpec::preset("gray160")?;
     let mut scratch = Scratch::new();
     for path in images.split_whitespace().map(Path::new) {
-        let stem = path.file_stem().and_then(|s| s.to_str()).ok_or("bad file name")?;
+        let stem = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .ok_or("bad file name")?;
         let view = spec.apply_with(&image::open(path)?, 0, &mut scratch)?;
-        view.to_image()?.save(Path::new(&out).join(format!("{stem}.png")))?;
+        view.to_image()?
+            .save(Path::new(&out).join(format!("{stem}.png")))?;
     }
     Ok(())
 }

@@ -385,8 +385,12 @@ mod tests {
     #[test]
     fn area_4x4_to_2x2_is_block_mean_with_ties_to_even() -> Result<()> {
         // Blocks (2x2 factor uses (s + 2) >> 2: ties up).
-        let src = GrayImage::from_raw(4, 4, vec![0, 1, 10, 10, 0, 1, 10, 11, 5, 5, 0, 0, 5, 5, 0, 2])
-            .ok_or_else(|| ImgprocError::Size("raw".into()))?;
+        let src = GrayImage::from_raw(
+            4,
+            4,
+            vec![0, 1, 10, 10, 0, 1, 10, 11, 5, 5, 0, 0, 5, 5, 0, 2],
+        )
+        .ok_or_else(|| ImgprocError::Size("raw".into()))?;
         let mut dst = GrayImage::new(2, 2);
         resize_gray(&src, &mut dst)?;
         // sums 2, 41, 20, 2 -> (2+2)>>2 = 1, (41+2)>>2 = 10, 5, 1

@@ -107,7 +107,9 @@ pub struct ViewSpec {
 }
 
 /// Names accepted by [`ViewSpec::preset`].
-pub const PRESET_NAMES: &[&str] = &["gray160", "rgb256", "rgb224", "place240", "gradmag", "edges"];
+pub const PRESET_NAMES: &[&str] = &[
+    "gray160", "rgb256", "rgb224", "place240", "gradmag", "edges",
+];
 
 impl ViewSpec {
     /// A spec from ops (validated).
@@ -213,7 +215,9 @@ impl ViewSpec {
                 Op::Equalize | Op::GradMag { .. } => {}
             }
             if op.needs_gray() && !gray {
-                return Err(err(format!("{at}: works on grey images; put `gray` before it")));
+                return Err(err(format!(
+                    "{at}: works on grey images; put `gray` before it"
+                )));
             }
         }
         Ok(())
@@ -241,7 +245,12 @@ impl fmt::Display for OpText<'_> {
                 write!(f, "norm=imagenet")
             }
             Op::Normalize(Norm::MeanStd { mean, std }) => {
-                let list = |v: &[f32]| v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(":");
+                let list = |v: &[f32]| {
+                    v.iter()
+                        .map(|x| format!("{x:?}"))
+                        .collect::<Vec<_>>()
+                        .join(":")
+                };
                 write!(f, "norm={}/{}", list(mean), list(std))
             }
         }
@@ -296,16 +305,20 @@ impl FromStr for ViewSpec {
                     let (clip, tiles) = pair(need("CLIP/TILES")?, "clahe").map_err(err)?;
                     Op::Clahe {
                         clip: number(clip).map_err(err)?,
-                        tiles: tiles
-                            .parse()
-                            .map_err(|_| err(format!("clahe tiles `{tiles}` is not a whole number")))?,
+                        tiles: tiles.parse().map_err(|_| {
+                            err(format!("clahe tiles `{tiles}` is not a whole number"))
+                        })?,
                     }
                 }
                 "gradmag" => Op::GradMag {
                     kernel: match need("sobel|scharr")? {
                         "sobel" => Kernel::Sobel,
                         "scharr" => Kernel::Scharr,
-                        k => return Err(err(format!("unknown gradmag kernel `{k}` (sobel, scharr)"))),
+                        k => {
+                            return Err(err(format!(
+                                "unknown gradmag kernel `{k}` (sobel, scharr)"
+                            )));
+                        }
                     },
                 },
                 "canny" => {
@@ -320,7 +333,8 @@ impl FromStr for ViewSpec {
                     "imagenet" => Norm::imagenet(),
                     a => {
                         let (mean, std) = pair(a, "norm").map_err(err)?;
-                        let list = |s: &str| s.split(':').map(number).collect::<Result<Vec<_>, _>>();
+                        let list =
+                            |s: &str| s.split(':').map(number).collect::<Result<Vec<_>, _>>();
                         Norm::MeanStd {
                             mean: list(mean).map_err(err)?,
                             std: list(std).map_err(err)?,
@@ -383,8 +397,14 @@ mod tests {
             spec.ops,
             vec![
                 Op::Gray,
-                Op::Resize { width: 160, height: 120 },
-                Op::Clahe { clip: 2.0, tiles: 8 }
+                Op::Resize {
+                    width: 160,
+                    height: 120
+                },
+                Op::Clahe {
+                    clip: 2.0,
+                    tiles: 8
+                }
             ]
         );
         assert_eq!(spec.to_string(), "gray,resize=160x120,clahe=2.0/8");
@@ -419,8 +439,14 @@ mod tests {
             assert_eq!(spec.to_string().parse::<ViewSpec>()?, spec);
         }
         assert_eq!(ViewSpec::preset("gray160")?.channels(), 1);
-        assert_eq!(ViewSpec::preset("rgb224")?.output_size(640, 480), (224, 224));
-        assert_eq!(ViewSpec::preset("place240")?.norm(), Some(&Norm::imagenet()));
+        assert_eq!(
+            ViewSpec::preset("rgb224")?.output_size(640, 480),
+            (224, 224)
+        );
+        assert_eq!(
+            ViewSpec::preset("place240")?.norm(),
+            Some(&Norm::imagenet())
+        );
         assert!(ViewSpec::preset("nope").is_err());
         Ok(())
     }

@@ -99,7 +99,10 @@ impl Lens {
             for x in 0..w {
                 let px = Point2::new(x as f64, y as f64);
                 let n = camera.normalized(&px);
-                let d = Vector2::new((px.x - camera.cx) / camera.fx, (px.y - camera.cy) / camera.fy);
+                let d = Vector2::new(
+                    (px.x - camera.cx) / camera.fx,
+                    (px.y - camera.cy) / camera.fy,
+                );
                 // The lens model must map the ray back onto the pixel (it may fold over or fail
                 // to invert far outside a real lens's field).
                 let back = camera.dist.apply(n);

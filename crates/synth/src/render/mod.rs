@@ -13,26 +13,31 @@
 //! let scene = RenderScene::new(&synth::World::default())?;
 //! let camera = geom::Camera::from_hfov(160, 120, 1.0)?;
 //! let mut renderer = Renderer::new();
-//! let out = renderer.render(&scene, &camera, &geom::Pose::identity(), &RenderOptions::default(), &[])?;
+//! let pose = geom::Pose::identity();
+//! let out = renderer.render(&scene, &camera, &pose, &RenderOptions::default(), &[])?;
 //! assert_eq!(out.depth.len(), 160 * 120);
 //! # Ok::<(), synth::SynthError>(())
 //! ```
 //!
 //! # How a frame is made
-//! 1. Visibility ([`raster`](self)): the scene's grid cells in the frustum, nearest first, each
+//! 1. Visibility: the scene's grid cells in the frustum, nearest first, each
 //!    skipped when a coarse depth buffer shows it hidden; triangles clipped at the near plane
 //!    (5 mm: cameras stand close to walls), snapped to 1/16 pixel and filled with integer edge
 //!    functions under the top-left rule (no cracks, no pixel drawn twice along a shared edge).
 //!    Only `1/z` (exact and perspective-correct: it is affine in screen space) and a triangle
 //!    index are written.
 //! 2. Shading, once per visible pixel (deferred): depth, `u/z` and `v/z` are evaluated from the
-//!    triangle's screen-space planes, so texture coordinates are perspective-correct; textures
-//!    are bilinear on a mip level picked from the pixel's texture footprint; light is Lambertian
-//!    from the ≤ 8 nearest lamps of each 16x16 tile (lamps of the camera's storey), plus ambient,
-//!    emissive surfaces and daylight through windows; haze fades towards its colour with
-//!    distance.
-//! 3. Finishing: motion-blur sub-frames averaged, vignetting, tone mapping to sRGB, sensor noise
-//!    drawn from a hash of the seed and the pixel (same seed, same bytes).
+//!    triangle's screen-space planes, so texture coordinates are perspective-correct. The mip
+//!    level comes from the pixel's texture footprint (screen derivatives of u and v): a
+//!    minified texture takes the nearest texel of that level (which already averages the
+//!    footprint), a magnified one is bilinear. Light is Lambertian from the ≤ 8 lamps nearest
+//!    to each 16x16 tile (lamps of the camera's storey), evaluated on a grid of every fourth
+//!    pixel and interpolated over each surface, plus ambient, emissive surfaces (a fixture
+//!    glows only while a lamp showing it is on) and daylight through windows; haze fades
+//!    towards its colour with distance.
+//! 3. Finishing: motion-blur sub-frames averaged, vignetting, tone mapping (a soft shoulder)
+//!    and sRGB encoding, sensor noise drawn from a hash of the seed and the pixel (same seed,
+//!    same bytes).
 //!
 //! A distorted lens is rendered through an undistorted pinhole raster that covers the lens's
 //! field of view: each output pixel looks up the triangle at its nearest raster pixel, then
@@ -188,7 +193,10 @@ impl RenderOptions {
         }
         if let Some(mb) = &self.motion_blur {
             if !(mb.shutter.is_finite() && (0.0..=1.0).contains(&mb.shutter)) {
-                return bad(&format!("motion blur shutter = {} must be in 0–1", mb.shutter));
+                return bad(&format!(
+                    "motion blur shutter = {} must be in 0–1",
+                    mb.shutter
+                ));
             }
             check_pose(&mb.previous, "previous pose of motion blur")?;
         }
@@ -235,6 +243,7 @@ pub struct Renderer {
     raster: Raster,
     shade: Shade,
     accum: Vec<[f32; 3]>,
+    finish_rows: (Vec<f32>, Vec<f32>, Vec<f32>, post::RowBytes),
     gray: Vec<f32>,
     out: RenderOutput,
 }
@@ -290,11 +299,16 @@ impl Renderer {
             vignetting: 0.0,
             seed: 0,
         };
-        let sensor = if matches!(mode, RenderMode::Shaded) { clean } else { photo };
+        let sensor = if matches!(mode, RenderMode::Shaded) {
+            clean
+        } else {
+            photo
+        };
         for k in 0..subframes {
             let pose_k = match blur {
                 Some(b) if subframes > 1 => {
-                    let s = 1.0 - b.shutter as f64 * (subframes - 1 - k) as f64 / (subframes - 1) as f64;
+                    let s = 1.0
+                        - b.shutter as f64 * (subframes - 1 - k) as f64 / (subframes - 1) as f64;
                     b.previous.interpolate(pose, s)
                 }
                 _ => *pose,
@@ -309,11 +323,19 @@ impl Renderer {
             }
             self.shade.choose_lights(scene, &view);
             let sink = if subframes == 1 {
-                shade::Sink::Bytes(&mut *self.out.rgb, sensor)
+                shade::Sink::Bytes(&mut self.out.rgb, sensor)
             } else {
                 shade::Sink::Accum(&mut self.accum, k == 0)
             };
-            self.shade.shade(scene, &mut self.raster, &self.lens, &view, mode, opts.shadows, sink);
+            self.shade.shade(
+                scene,
+                &mut self.raster,
+                &self.lens,
+                &view,
+                mode,
+                opts.shadows,
+                sink,
+            );
         }
         // Depth and planes of the current pose (the last sub-frame).
         for i in 0..n {
@@ -328,7 +350,15 @@ impl Renderer {
         }
         let rgb: &mut [u8] = &mut self.out.rgb;
         if subframes > 1 {
-            post::finish(&self.accum, subframes, rgb, w, h, sensor);
+            post::finish(
+                &self.accum,
+                subframes,
+                rgb,
+                w,
+                h,
+                sensor,
+                &mut self.finish_rows,
+            );
         }
         match mode {
             RenderMode::Gradmag => post::gradmag(rgb, &mut self.gray, w, h),
@@ -357,7 +387,10 @@ pub fn render(
 /// A pose must be finite to render from.
 fn check_pose(pose: &Pose, what: &str) -> Result<()> {
     let q = pose.rotation.quaternion().coords;
-    if q.iter().chain(pose.translation.iter()).all(|v| v.is_finite()) {
+    if q.iter()
+        .chain(pose.translation.iter())
+        .all(|v| v.is_finite())
+    {
         Ok(())
     } else {
         Err(SynthError::Config(format!("{what} is not finite")))
@@ -367,8 +400,8 @@ fn check_pose(pose: &Pose, what: &str) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::world::{Light, Material, Pattern, Plane};
     use crate::World;
+    use crate::world::{Light, Material, Pattern, Plane};
     use geom::Distortion;
     use nalgebra::{Matrix3, Point2, Point3, Vector3};
 
@@ -378,7 +411,11 @@ mod tests {
     fn look_at(eye: [f64; 3], target: [f64; 3]) -> R<Pose> {
         let e = Vector3::from(eye);
         let f = (Vector3::from(target) - e).normalize();
-        let up = if f.z.abs() > 0.99 { Vector3::y() } else { Vector3::z() };
+        let up = if f.z.abs() > 0.99 {
+            Vector3::y()
+        } else {
+            Vector3::z()
+        };
         let x = f.cross(&up).normalize();
         let y = f.cross(&x);
         Ok(Pose::from_rt(&Matrix3::from_columns(&[x, y, f]), eye)?)
@@ -418,12 +455,51 @@ mod tests {
     fn corner_world() -> World {
         let mut w = World::default();
         let [wall, wall2, floor] = materials(&mut w);
-        w.add_plane(Plane { normal: Vector3::x(), offset: 0.0 });
-        w.add_plane(Plane { normal: Vector3::y(), offset: 0.0 });
-        w.add_plane(Plane { normal: Vector3::z(), offset: 0.0 });
-        quad(&mut w, [[0.0, 6.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 3.0], [0.0, 6.0, 3.0]], wall, 1);
-        quad(&mut w, [[0.0, 0.0, 0.0], [6.0, 0.0, 0.0], [6.0, 0.0, 3.0], [0.0, 0.0, 3.0]], wall2, 2);
-        quad(&mut w, [[0.0, 0.0, 0.0], [6.0, 0.0, 0.0], [6.0, 6.0, 0.0], [0.0, 6.0, 0.0]], floor, 3);
+        w.add_plane(Plane {
+            normal: Vector3::x(),
+            offset: 0.0,
+        });
+        w.add_plane(Plane {
+            normal: Vector3::y(),
+            offset: 0.0,
+        });
+        w.add_plane(Plane {
+            normal: Vector3::z(),
+            offset: 0.0,
+        });
+        quad(
+            &mut w,
+            [
+                [0.0, 6.0, 0.0],
+                [0.0, 0.0, 0.0],
+                [0.0, 0.0, 3.0],
+                [0.0, 6.0, 3.0],
+            ],
+            wall,
+            1,
+        );
+        quad(
+            &mut w,
+            [
+                [0.0, 0.0, 0.0],
+                [6.0, 0.0, 0.0],
+                [6.0, 0.0, 3.0],
+                [0.0, 0.0, 3.0],
+            ],
+            wall2,
+            2,
+        );
+        quad(
+            &mut w,
+            [
+                [0.0, 0.0, 0.0],
+                [6.0, 0.0, 0.0],
+                [6.0, 6.0, 0.0],
+                [0.0, 6.0, 0.0],
+            ],
+            floor,
+            3,
+        );
         w.lights.push(Light {
             position: Point3::new(2.0, 2.0, 2.8),
             intensity: 1.0,
@@ -438,12 +514,42 @@ mod tests {
         let mut w = World::default();
         let [wall, wall2, floor] = materials(&mut w);
         let (x, y, z) = (4.0, 5.0, 3.0);
-        quad(&mut w, [[0.0, 0.0, 0.0], [x, 0.0, 0.0], [x, y, 0.0], [0.0, y, 0.0]], floor, 1);
-        quad(&mut w, [[0.0, 0.0, z], [0.0, y, z], [x, y, z], [x, 0.0, z]], wall2, 2);
-        quad(&mut w, [[0.0, 0.0, 0.0], [0.0, y, 0.0], [0.0, y, z], [0.0, 0.0, z]], wall, 3);
-        quad(&mut w, [[x, y, 0.0], [x, 0.0, 0.0], [x, 0.0, z], [x, y, z]], wall, 4);
-        quad(&mut w, [[x, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, z], [x, 0.0, z]], wall2, 5);
-        quad(&mut w, [[0.0, y, 0.0], [x, y, 0.0], [x, y, z], [0.0, y, z]], wall2, 6);
+        quad(
+            &mut w,
+            [[0.0, 0.0, 0.0], [x, 0.0, 0.0], [x, y, 0.0], [0.0, y, 0.0]],
+            floor,
+            1,
+        );
+        quad(
+            &mut w,
+            [[0.0, 0.0, z], [0.0, y, z], [x, y, z], [x, 0.0, z]],
+            wall2,
+            2,
+        );
+        quad(
+            &mut w,
+            [[0.0, 0.0, 0.0], [0.0, y, 0.0], [0.0, y, z], [0.0, 0.0, z]],
+            wall,
+            3,
+        );
+        quad(
+            &mut w,
+            [[x, y, 0.0], [x, 0.0, 0.0], [x, 0.0, z], [x, y, z]],
+            wall,
+            4,
+        );
+        quad(
+            &mut w,
+            [[x, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, z], [x, 0.0, z]],
+            wall2,
+            5,
+        );
+        quad(
+            &mut w,
+            [[0.0, y, 0.0], [x, y, 0.0], [x, y, z], [0.0, y, z]],
+            wall2,
+            6,
+        );
         w.lights.push(Light {
             position: Point3::new(2.0, 2.5, 2.9),
             intensity: 1.0,
@@ -455,7 +561,10 @@ mod tests {
 
     fn cameras() -> R<Vec<(&'static str, Camera)>> {
         Ok(vec![
-            ("pinhole", Camera::new(320, 240, 260.0, 262.0, 161.3, 118.7, Distortion::default())?),
+            (
+                "pinhole",
+                Camera::new(320, 240, 260.0, 262.0, 161.3, 118.7, Distortion::default())?,
+            ),
             (
                 "distorted",
                 Camera::new(
@@ -505,7 +614,8 @@ mod tests {
                 let pose = look_at(*eye, *target)?;
                 let out = render(&scene, &camera, &pose, &flat(RenderMode::Textured))?;
                 let tmp = std::env::temp_dir();
-                out.rgb.save(tmp.join(format!("render_corner_{name}_{v}.png")))?;
+                out.rgb
+                    .save(tmp.join(format!("render_corner_{name}_{v}.png")))?;
                 let (w, h) = (camera.width as usize, camera.height as usize);
                 // Pixel corners where all three plane ids meet within a 2x2 block.
                 let (mut sx, mut sy, mut count) = (0.0, 0.0, 0);
@@ -524,7 +634,10 @@ mod tests {
                         }
                     }
                 }
-                assert!(count > 0, "{name} {v}: no pixel where the three planes meet");
+                assert!(
+                    count > 0,
+                    "{name} {v}: no pixel where the three planes meet"
+                );
                 let found = Point2::new(sx / count as f64, sy / count as f64);
                 let expected = camera
                     .project_world(&pose, &corner)
@@ -532,8 +645,9 @@ mod tests {
                 let pinhole = camera.undistort_pixel(&expected);
                 let err_px = (found - expected).norm();
                 println!(
-                    "{name} view {v}: corner rendered at ({:.2}, {:.2}), geom projects ({:.2}, {:.2}) \
-                     [{:.1} px from where a pinhole would put it]: error {err_px:.3} px",
+                    "{name} view {v}: corner rendered at ({:.2}, {:.2}), geom projects \
+                     ({:.2}, {:.2}) [{:.1} px from where a pinhole would put it]: \
+                     error {err_px:.3} px",
                     found.x,
                     found.y,
                     expected.x,
@@ -556,24 +670,33 @@ mod tests {
                         };
                         // Skip pixels next to another surface: their nearest-pixel lookup may
                         // take the neighbour's triangle.
-                        let near_other = [(0isize, 1isize), (1, 0), (0, -1), (-1, 0)]
-                            .iter()
-                            .any(|(dx, dy)| {
-                                let j = (y as isize + dy) as usize * w + (x as isize + dx) as usize;
-                                out.plane[j] != id
-                            });
+                        let near_other =
+                            [(0isize, 1isize), (1, 0), (0, -1), (-1, 0)]
+                                .iter()
+                                .any(|(dx, dy)| {
+                                    let j =
+                                        (y as isize + dy) as usize * w + (x as isize + dx) as usize;
+                                    out.plane[j] != id
+                                });
                         if near_other {
                             continue;
                         }
-                        let ray = r * camera.unproject(&Point2::new(x as f64, y as f64), 1.0).coords;
+                        let ray = r * camera
+                            .unproject(&Point2::new(x as f64, y as f64), 1.0)
+                            .coords;
                         let s = (off - n.dot(&c)) / n.dot(&ray);
                         let err = (out.depth[y * w + x] as f64 - s).abs();
                         worst = worst.max(err);
                         checked += 1;
                     }
                 }
-                println!("{name} view {v}: depth checked at {checked} pixels, worst error {worst:.2e} m");
-                assert!(checked > w * h / 3, "{name} {v}: only {checked} pixels checked");
+                println!(
+                    "{name} view {v}: depth checked at {checked} pixels, worst error {worst:.2e} m"
+                );
+                assert!(
+                    checked > w * h / 3,
+                    "{name} {v}: only {checked} pixels checked"
+                );
                 assert!(worst < 0.01, "{name} {v}: depth off by {worst} m");
                 worst_depth = worst_depth.max(worst);
             }
@@ -595,11 +718,22 @@ mod tests {
         let a = render(&scene, &camera, &pose, &opts(7))?;
         let mut r = Renderer::new();
         // A reused renderer (after another frame) gives the same bytes as a fresh one.
-        r.render(&scene, &camera, &look_at([2.0, 2.0, 1.0], [0.0, 0.0, 0.0])?, &opts(1), &[])?;
+        r.render(
+            &scene,
+            &camera,
+            &look_at([2.0, 2.0, 1.0], [0.0, 0.0, 0.0])?,
+            &opts(1),
+            &[],
+        )?;
         let b = r.render(&scene, &camera, &pose, &opts(7), &[])?.clone();
         assert_eq!(a, b);
         let c = render(&scene, &camera, &pose, &opts(8))?;
-        let differing = a.rgb.iter().zip(c.rgb.iter()).filter(|(x, y)| x != y).count();
+        let differing = a
+            .rgb
+            .iter()
+            .zip(c.rgb.iter())
+            .filter(|(x, y)| x != y)
+            .count();
         assert!(differing > a.rgb.len() / 2, "only {differing} bytes differ");
         assert_eq!(a.depth, c.depth);
         Ok(())
@@ -615,7 +749,10 @@ mod tests {
             let lo = out.rgb.iter().min().copied().unwrap_or(0);
             let hi = out.rgb.iter().max().copied().unwrap_or(0);
             assert!(hi > lo + 50, "{mode}: range {lo}..{hi}");
-            out.rgb.save(format!("{}/render_test_{mode}.png", std::env::temp_dir().display()))?;
+            out.rgb.save(format!(
+                "{}/render_test_{mode}.png",
+                std::env::temp_dir().display()
+            ))?;
         }
         // Edges: a white line along the vertical edge where the walls meet.
         let out = render(&scene, &camera, &pose, &flat(RenderMode::Edges))?;
@@ -650,7 +787,11 @@ mod tests {
             for (k, t) in targets.iter().enumerate() {
                 let pose = look_at([2.0, 2.5, 1.5], *t)?;
                 let out = render(&scene, &camera, &pose, &flat(RenderMode::Shaded))?;
-                let empty = out.depth.iter().filter(|&&d| !(d > 0.0)).count();
+                let empty = out
+                    .depth
+                    .iter()
+                    .filter(|&&d| d <= 0.0 || d.is_nan())
+                    .count();
                 assert_eq!(empty, 0, "{name}, view {k}: {empty} pixels see nothing");
             }
         }
@@ -674,30 +815,47 @@ mod tests {
                 return [0.0, 0.0];
             }
             let h = (i * 7919 + j * 104_729) % 1000;
-            [(h % 37) as f32 * 0.004 - 0.07, (h % 41) as f32 * 0.004 - 0.08]
+            [
+                (h % 37) as f32 * 0.004 - 0.07,
+                (h % 41) as f32 * 0.004 - 0.08,
+            ]
         };
         let v = |i: usize, j: usize| {
             let d = jitter(i, j);
-            Point3::new(i as f32 * 0.5 - 15.0 + d[0], j as f32 * 0.5 - 15.0 + d[1], 0.0)
+            Point3::new(
+                i as f32 * 0.5 - 15.0 + d[0],
+                j as f32 * 0.5 - 15.0 + d[1],
+                0.0,
+            )
         };
         for i in 0..n {
             for j in 0..n {
                 let (a, b, c, d) = (v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1));
                 for t in [[a, b, c], [a, c, d]] {
-                    w.triangles.push(Triangle { v: t, uv: [[0.0; 2]; 3], material: m, plane: 1 });
+                    w.triangles.push(Triangle {
+                        v: t,
+                        uv: [[0.0; 2]; 3],
+                        material: m,
+                        plane: 1,
+                    });
                 }
             }
         }
         let scene = RenderScene::new(&w)?;
         let camera = Camera::from_hfov(200, 150, 1.3)?;
-        for (eye, target) in [([0.3, 0.2, 1.6], [5.0, 3.0, 0.0]), ([1.0, -2.0, 0.4], [2.0, 3.0, 0.2])] {
+        for (eye, target) in [
+            ([0.3, 0.2, 1.6], [5.0, 3.0, 0.0]),
+            ([1.0, -2.0, 0.4], [2.0, 3.0, 0.2]),
+        ] {
             let pose = look_at(eye, target)?;
             let out = render(&scene, &camera, &pose, &flat(RenderMode::Shaded))?;
             let mut holes = 0;
             for y in 0..150 {
                 for x in 0..200 {
                     let ray = pose.rotation_matrix()
-                        * camera.unproject(&Point2::new(x as f64, y as f64), 1.0).coords;
+                        * camera
+                            .unproject(&Point2::new(x as f64, y as f64), 1.0)
+                            .coords;
                     // Rays that hit the floor well inside the mesh must find it.
                     if ray.z < -1e-3 {
                         let s = -eye[2] / ray.z;
@@ -716,7 +874,15 @@ mod tests {
     #[test]
     fn render_degenerate_inputs_do_not_panic() -> R {
         let camera = Camera::from_hfov(64, 48, 1.2)?;
-        let distorted = Camera::new(64, 48, 40.0, 40.0, 31.5, 23.5, Distortion::from_array([-0.3, 0.08, 0.001, -0.001, 0.0]))?;
+        let distorted = Camera::new(
+            64,
+            48,
+            40.0,
+            40.0,
+            31.5,
+            23.5,
+            Distortion::from_array([-0.3, 0.08, 0.001, -0.001, 0.0]),
+        )?;
         let pose = look_at([1.0, 1.0, 1.5], [3.0, 3.0, 1.0])?;
         // Empty world.
         let empty = RenderScene::new(&World::default())?;
@@ -728,7 +894,12 @@ mod tests {
         // Zero-area and NaN triangles, a material id that does not exist, NaN uv.
         let mut w = box_world();
         let p = Point3::new(1.0, 1.0, 1.0);
-        w.triangles.push(Triangle { v: [p, p, p], uv: [[0.0; 2]; 3], material: 0, plane: 0 });
+        w.triangles.push(Triangle {
+            v: [p, p, p],
+            uv: [[0.0; 2]; 3],
+            material: 0,
+            plane: 0,
+        });
         w.triangles.push(Triangle {
             v: [p, Point3::new(2.0, 2.0, 2.0), Point3::new(3.0, 3.0, 3.0)],
             uv: [[0.0; 2]; 3],
@@ -736,13 +907,21 @@ mod tests {
             plane: 0,
         });
         w.triangles.push(Triangle {
-            v: [p, Point3::new(f32::NAN, 2.0, 2.0), Point3::new(3.0, 1.0, 1.0)],
+            v: [
+                p,
+                Point3::new(f32::NAN, 2.0, 2.0),
+                Point3::new(3.0, 1.0, 1.0),
+            ],
             uv: [[0.0; 2]; 3],
             material: 0,
             plane: 0,
         });
         w.triangles.push(Triangle {
-            v: [Point3::new(1.0, 3.0, 0.5), Point3::new(3.0, 3.0, 0.5), Point3::new(2.0, 3.0, 2.0)],
+            v: [
+                Point3::new(1.0, 3.0, 0.5),
+                Point3::new(3.0, 3.0, 0.5),
+                Point3::new(2.0, 3.0, 2.0),
+            ],
             uv: [[f32::NAN, f32::INFINITY], [0.0; 2], [1e30, -1e30]],
             material: 999,
             plane: 7,
@@ -752,10 +931,25 @@ mod tests {
         let mut r = Renderer::new();
         for cam in [camera, distorted] {
             for mode in RenderMode::ALL {
-                let opts = RenderOptions { mode, shadows: true, ..RenderOptions::default() };
-                r.render(&scene, &cam, &pose, &opts, &w.triangles[w.triangles.len() - 4..])?;
+                let opts = RenderOptions {
+                    mode,
+                    shadows: true,
+                    ..RenderOptions::default()
+                };
+                r.render(
+                    &scene,
+                    &cam,
+                    &pose,
+                    &opts,
+                    &w.triangles[w.triangles.len() - 4..],
+                )?;
                 // Camera inside a wall (on its plane), in a corner, and far outside.
-                for eye in [[0.0, 2.5, 1.5], [0.0, 0.0, 0.0], [4.0, 5.0, 3.0], [1e6, -1e6, 5.0]] {
+                for eye in [
+                    [0.0, 2.5, 1.5],
+                    [0.0, 0.0, 0.0],
+                    [4.0, 5.0, 3.0],
+                    [1e6, -1e6, 5.0],
+                ] {
                     let pose = look_at(eye, [2.0, 2.5, 1.0])?;
                     r.render(&scene, &cam, &pose, &opts, &[])?;
                 }
@@ -765,7 +959,11 @@ mod tests {
         let mut w = World::default();
         let m = w.add_material(Material::plain("floor", [0.5, 0.5, 0.5]));
         w.triangles.push(Triangle {
-            v: [Point3::new(-1e4, -1e4, 0.0), Point3::new(1e4, -1e4, 0.0), Point3::new(0.0, 1e4, 0.0)],
+            v: [
+                Point3::new(-1e4, -1e4, 0.0),
+                Point3::new(1e4, -1e4, 0.0),
+                Point3::new(0.0, 1e4, 0.0),
+            ],
             uv: [[0.0; 2]; 3],
             material: m,
             plane: 1,
@@ -776,7 +974,10 @@ mod tests {
         // Looking down at 17°, the bottom row sees the floor at depth ≈ 1.5 / sin(angle).
         assert!(out.depth[47 * 64..].iter().all(|&d| d > 0.5 && d < 10.0));
         // Bad options and poses are errors, not panics.
-        let bad = RenderOptions { noise: f32::NAN, ..RenderOptions::default() };
+        let bad = RenderOptions {
+            noise: f32::NAN,
+            ..RenderOptions::default()
+        };
         assert!(render(&scene, &camera, &pose, &bad).is_err());
         let mut nan_pose = pose;
         nan_pose.translation.x = f64::NAN;
@@ -808,8 +1009,17 @@ mod tests {
         assert_eq!(sharp.depth, blurred.depth);
         world.atmosphere.haze = 0.5;
         world.atmosphere.haze_color = [0.9, 0.2, 0.2];
-        let hazy = render(&RenderScene::new(&world)?, &camera, &pose, &flat(RenderMode::Textured))?;
-        let red = |img: &image::RgbImage| img.pixels().map(|p| p.0[0] as f64 - p.0[2] as f64).sum::<f64>();
+        let hazy = render(
+            &RenderScene::new(&world)?,
+            &camera,
+            &pose,
+            &flat(RenderMode::Textured),
+        )?;
+        let red = |img: &image::RgbImage| {
+            img.pixels()
+                .map(|p| p.0[0] as f64 - p.0[2] as f64)
+                .sum::<f64>()
+        };
         assert!(red(&hazy.rgb) > red(&sharp.rgb) + 1000.0);
         Ok(())
     }

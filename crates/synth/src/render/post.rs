@@ -3,7 +3,7 @@
 
 use super::lens::Lens;
 use super::raster::{NONE, VisTri};
-use super::scene::{dot32, luts};
+use super::scene::dot32;
 use super::shade::Shade;
 
 /// Sensor model of the photo-like modes.
@@ -17,8 +17,7 @@ pub(crate) struct Sensor {
     pub seed: u64,
 }
 
-/// SplitMix64's finalizer: a well-mixed 64-bit hash, so noise needs no generator state and every
-/// pixel's noise depends only on the seed and the pixel.
+/// SplitMix64's finalizer: a well-mixed 64-bit hash (turns a seed into a frame's noise key).
 #[inline(always)]
 pub(crate) fn mix(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
@@ -26,64 +25,172 @@ pub(crate) fn mix(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-/// Averages `subframes` of linear radiance, applies vignetting, tone-maps to sRGB and adds noise.
-pub(crate) fn finish(accum: &[[f32; 3]], subframes: usize, rgb: &mut [u8], w: usize, h: usize, sensor: Sensor) {
-    let lut = luts();
-    let inv = 1.0 / subframes.max(1) as f32;
-    let (cx, cy) = ((w as f32 - 1.0) / 2.0, (h as f32 - 1.0) / 2.0);
-    let r2norm = 1.0 / (cx * cx + cy * cy).max(1.0);
-    let vig = sensor.vignetting.clamp(0.0, 1.0);
-    let amp = noise_amp(sensor.noise);
-    let key = mix(sensor.seed ^ 0x5851_f42d_4c95_7f2d);
-    for y in 0..h {
-        let dy = y as f32 - cy;
-        for x in 0..w {
-            let i = y * w + x;
-            let dx = x as f32 - cx;
-            let f = inv * (1.0 - vig * (dx * dx + dy * dy) * r2norm);
-            let a = accum[i];
-            let mut px = [
-                lut.encode_one(a[0] * f),
-                lut.encode_one(a[1] * f),
-                lut.encode_one(a[2] * f),
-            ];
-            if amp > 0 {
-                add_noise(&mut px, key, i, amp);
-            }
-            rgb[3 * i..3 * i + 3].copy_from_slice(&px);
+/// A 32-bit hash of shifts, adds and xors only (Jenkins' one-at-a-time finalizer, twice): no
+/// multiplies, which baseline x86-64 (SSE2) cannot do four at a time, so rows of noise vectorize.
+#[inline(always)]
+fn hash32(mut x: u32) -> u32 {
+    for _ in 0..2 {
+        x = x.wrapping_add(x << 10);
+        x ^= x >> 6;
+        x = x.wrapping_add(x << 3);
+        x ^= x >> 11;
+        x = x.wrapping_add(x << 15);
+    }
+    x
+}
+
+/// Coefficients of sRGB encoding as a polynomial in `x^(1/4)` (least squares on 0–1; within
+/// 1.2 levels of 255 of the exact curve), so encoding needs two square roots and no table.
+const SRGB_POLY: [f32; 6] = [
+    -0.052_951_2,
+    -0.281_070_9,
+    9.086_772,
+    -19.454_353,
+    17.439_068,
+    -5.741_222,
+];
+
+/// Linear light → display level 0–255 (not rounded): identity below a knee, then a soft
+/// shoulder so lamps and sunlit windows saturate gracefully instead of clipping hard; then the
+/// sRGB curve. Branch-free, so a row of it vectorizes.
+#[inline(always)]
+pub(crate) fn encode(x: f32) -> f32 {
+    const KNEE: f32 = 0.8;
+    let u = (x - KNEE) * (1.0 / (1.0 - KNEE));
+    let shoulder = KNEE + (1.0 - KNEE) * u / (1.0 + u);
+    let t = if x > KNEE { shoulder } else { x };
+    let t = if t > 0.0 { t } else { 0.0 };
+    let q = t.sqrt().sqrt();
+    let mut s = 0.0;
+    for c in SRGB_POLY.iter().rev() {
+        s = (s + c) * q;
+    }
+    // The fit ends at 254.0 for t = 1; stretch it to full scale.
+    s * 255.96
+}
+
+/// The sensor model for one image: vignetting, tone mapping and sRGB encoding, noise.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Finisher {
+    vig: f32,
+    vcx: f32,
+    vcy: f32,
+    amp: f32,
+    key: u32,
+    width: usize,
+}
+
+/// Rows of one finished image channel by channel (reused scratch).
+#[derive(Debug, Default)]
+pub(crate) struct RowBytes {
+    r: Vec<u8>,
+    g: Vec<u8>,
+    b: Vec<u8>,
+}
+
+impl Finisher {
+    /// The sensor model of a `w` x `h` image.
+    pub fn new(sensor: Sensor, w: usize, h: usize) -> Finisher {
+        let (vcx, vcy) = ((w as f32 - 1.0) / 2.0, (h as f32 - 1.0) / 2.0);
+        // The noise variate, a sum of two uniform bytes minus 255, has σ = 255/√6.
+        let amp = sensor.noise.clamp(0.0, 1.0) * 255.0 / (255.0 / 6f32.sqrt());
+        Finisher {
+            vig: sensor.vignetting.clamp(0.0, 1.0) / (vcx * vcx + vcy * vcy).max(1.0),
+            vcx,
+            vcy,
+            amp,
+            key: (mix(sensor.seed ^ 0x5851_f42d_4c95_7f2d) >> 32) as u32,
+            width: w,
+        }
+    }
+
+    /// Encodes row `y` of linear radiance (`scale`·(r, g, b)) into interleaved sRGB bytes.
+    /// Noise depends only on the seed and the pixel: the same seed gives the same bytes.
+    #[allow(clippy::too_many_arguments)]
+    pub fn row(
+        &self,
+        y: usize,
+        scale: f32,
+        r: &[f32],
+        g: &[f32],
+        b: &[f32],
+        tmp: &mut RowBytes,
+        out: &mut [u8],
+    ) {
+        let n = r.len().min(g.len()).min(b.len());
+        for v in [&mut tmp.r, &mut tmp.g, &mut tmp.b] {
+            v.resize(n, 0);
+        }
+        let dy = y as f32 - self.vcy;
+        let dy2 = dy * dy;
+        let base = (y * self.width) as u32;
+        // Clamp, then round to nearest by adding 1.5·2²³ (the integer lands in the low mantissa
+        // bits): no float→int conversion, which would keep the loop from vectorizing.
+        let quant = |v: f32| -> u8 {
+            let v = if v > 0.0 { v } else { 0.0 };
+            let v = if v < 255.0 { v } else { 255.0 };
+            ((v + 12_582_912.0).to_bits() & 0xff) as u8
+        };
+        let chans = tmp.r.iter_mut().zip(tmp.g.iter_mut()).zip(tmp.b.iter_mut());
+        for (x, (((or, og), ob), ((&lr, &lg), &lb))) in
+            chans.zip(r.iter().zip(g).zip(b)).enumerate()
+        {
+            let dx = x as f32 - self.vcx;
+            let f = scale * (1.0 - self.vig * (dx * dx + dy2));
+            let h1 = hash32(self.key ^ (base + x as u32));
+            let h2 = hash32(h1 ^ 0x68e3_1da4);
+            let tri = |h: u32| ((h & 0xff) + ((h >> 8) & 0xff)) as f32 - 255.0;
+            *or = quant(encode(lr * f) + tri(h1) * self.amp);
+            *og = quant(encode(lg * f) + tri(h1 >> 16) * self.amp);
+            *ob = quant(encode(lb * f) + tri(h2) * self.amp);
+        }
+        for (px, ((&r, &g), &b)) in out
+            .chunks_exact_mut(3)
+            .zip(tmp.r.iter().zip(&tmp.g).zip(&tmp.b))
+        {
+            px[0] = r;
+            px[1] = g;
+            px[2] = b;
         }
     }
 }
 
-/// Fixed-point scale (1/65536) of the noise variate for a standard deviation of `noise` (fraction
-/// of full scale).
-pub(crate) fn noise_amp(noise: f32) -> i32 {
-    // The variate, a sum of two uniform bytes minus 255, has σ = 255/√6.
-    let scale = noise.clamp(0.0, 1.0) * 255.0 / (255.0 / 6f32.sqrt());
-    (scale * 65536.0) as i32
-}
-
-/// Adds the noise of pixel `i` (`amp` from [`noise_amp`]): a triangular variate per channel, a
-/// close and cheap stand-in for Gaussian read noise, drawn from a hash of the frame's key and
-/// the pixel so it needs no generator state.
-#[inline(always)]
-pub(crate) fn add_noise(px: &mut [u8; 3], key: u64, i: usize, amp: i32) {
-    let mut h = (key ^ i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-    h ^= h >> 32;
-    h = h.wrapping_mul(0xd6e8_feb8_6659_fd93);
-    h ^= h >> 29;
-    for (k, c) in px.iter_mut().enumerate() {
-        let a = ((h >> (16 * k)) & 0xff) as i32;
-        let b = ((h >> (16 * k + 8)) & 0xff) as i32;
-        let v = *c as i32 + (((a + b - 255) * amp + 32768) >> 16);
-        *c = v.clamp(0, 255) as u8;
+/// Averages `subframes` of linear radiance (motion blur) and finishes the image.
+pub(crate) fn finish(
+    accum: &[[f32; 3]],
+    subframes: usize,
+    rgb: &mut [u8],
+    w: usize,
+    h: usize,
+    sensor: Sensor,
+    scratch: &mut (Vec<f32>, Vec<f32>, Vec<f32>, RowBytes),
+) {
+    let fin = Finisher::new(sensor, w, h);
+    let inv = 1.0 / subframes.max(1) as f32;
+    let (r, g, b, tmp) = scratch;
+    for y in 0..h {
+        let row = &accum[y * w..(y + 1) * w];
+        r.clear();
+        g.clear();
+        b.clear();
+        r.extend(row.iter().map(|c| c[0]));
+        g.extend(row.iter().map(|c| c[1]));
+        b.extend(row.iter().map(|c| c[2]));
+        fin.row(y, inv, r, g, b, tmp, &mut rgb[3 * y * w..3 * (y + 1) * w]);
     }
 }
 
 /// White where the visible geometry changes: another dominant plane, a crease (normals more than
 /// about 20° apart), an occlusion boundary (the neighbour's depth is not on this pixel's plane),
 /// or geometry against empty space. Coplanar triangles of one surface draw no line.
-pub(crate) fn edges(shade: &Shade, vis: &[VisTri], lens: &Lens, rgb: &mut [u8], w: usize, h: usize) {
+pub(crate) fn edges(
+    shade: &Shade,
+    vis: &[VisTri],
+    lens: &Lens,
+    rgb: &mut [u8],
+    w: usize,
+    h: usize,
+) {
     let pos = |i: usize, x: usize, y: usize| -> (f32, f32) {
         if lens.map.is_empty() {
             (x as f32, y as f32)

@@ -8,6 +8,9 @@
 //! triangles sharing an edge cover every pixel centre along it exactly once. Only `1/z` and a
 //! triangle index are written; shading happens once per pixel afterwards (deferred).
 
+// `!(x > y)` is deliberate here: it is also true for NaN, which must fail the check.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use super::FrameStats;
 use super::lens::RasterCam;
 use super::scene::{Grid, RenderScene, SceneTri, dot32, fmax, fmin};
@@ -112,7 +115,7 @@ impl View {
 
     /// World point → camera coordinates.
     #[inline(always)]
-    pub fn to_cam(&self, p: [f32; 3]) -> [f32; 3] {
+    pub fn world_to_cam(&self, p: [f32; 3]) -> [f32; 3] {
         let d = [p[0] - self.c[0], p[1] - self.c[1], p[2] - self.c[2]];
         self.rotate(d)
     }
@@ -120,7 +123,11 @@ impl View {
     /// World direction → camera coordinates.
     #[inline(always)]
     pub fn rotate(&self, d: [f32; 3]) -> [f32; 3] {
-        [dot32(self.rot[0], d), dot32(self.rot[1], d), dot32(self.rot[2], d)]
+        [
+            dot32(self.rot[0], d),
+            dot32(self.rot[1], d),
+            dot32(self.rot[2], d),
+        ]
     }
 
     /// World point at raster position `(sx, sy)` and depth `z`.
@@ -222,7 +229,6 @@ impl Stamps {
 }
 
 impl Raster {
-
     /// Sizes the buffers for a scene and a raster.
     fn prepare(&mut self, scene: &RenderScene, cam: RasterCam) {
         if self.scene_id != scene.id || self.stamps.marks.len() != scene.tris.len() {
@@ -311,7 +317,8 @@ impl Raster {
                 hi[k] = hi[k].max(p[k]);
             }
         }
-        let grid_hi: [f32; 3] = std::array::from_fn(|k| grid.lo[k] + grid.cell * grid.dims[k] as f32);
+        let grid_hi: [f32; 3] =
+            std::array::from_fn(|k| grid.lo[k] + grid.cell * grid.dims[k] as f32);
         if (0..3).any(|k| !(hi[k] >= grid.lo[k] && lo[k] <= grid_hi[k])) {
             return;
         }
@@ -320,8 +327,9 @@ impl Raster {
         // along a row of cells each plane keeps an interval of x; the frustum keeps their
         // intersection (convex), found with six divisions per row instead of a test per cell.
         let g = grid.cell;
-        for z in a[2]..=b[2] {
-            for y in a[1]..=b[1] {
+        // Exclusive ranges: inclusive ones cost an extra test per step.
+        for z in a[2]..b[2] + 1 {
+            for y in a[1]..b[1] + 1 {
                 let (mut xa, mut xb) = (a[0] as f32, b[0] as f32);
                 for p in &view.planes {
                     // Value at the corner of cell (0, y, z) that is most positive along p.
@@ -345,7 +353,7 @@ impl Raster {
                     continue;
                 }
                 let row = grid.index([0, y, z]);
-                for x in xa.max(a[0] as f32) as usize..=xb.min(b[0] as f32) as usize {
+                for x in xa.max(a[0] as f32) as usize..xb.min(b[0] as f32) as usize + 1 {
                     let cell = row + x;
                     if grid.is_empty(cell) {
                         continue;
@@ -370,7 +378,7 @@ impl Raster {
     fn cell_visible(&mut self, grid: &Grid, cell: usize, view: &View) -> bool {
         let (lo, _) = grid.cell_box(cell);
         let cam = view.cam;
-        let q0 = view.to_cam(lo);
+        let q0 = view.world_to_cam(lo);
         let [ex, ey, ez] = self.cell_axes;
         let (mut x0, mut x1, mut y0, mut y1) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
         let mut zmin = f32::MAX;
@@ -413,8 +421,8 @@ impl Raster {
         let ty0 = fmax(y0, 0.0) as usize / HIZ;
         let ty1 = (fmin(y1, hl) as usize + 1).min(cam.h - 1) / HIZ;
         let wnear = 1.0 / zmin;
-        for ty in ty0..=ty1 {
-            for tx in tx0..=tx1 {
+        for ty in ty0..ty1 + 1 {
+            for tx in tx0..tx1 + 1 {
                 // A stale value is at most the true one (pixels only come nearer), so it may
                 // prove the tile hidden as it is; refresh it only when it cannot.
                 let t = ty * self.tiles_w + tx;
@@ -447,7 +455,7 @@ impl Raster {
     /// Culls, clips and fills one triangle.
     fn draw_tri(&mut self, t: &SceneTri, view: &View) {
         self.stats.triangles_tested += 1;
-        let p = t.v.map(|q| view.to_cam(q));
+        let p = t.v.map(|q| view.world_to_cam(q));
         let behind = [p[0][2] < NEAR, p[1][2] < NEAR, p[2][2] < NEAR];
         if behind[0] && behind[1] && behind[2] {
             return;
@@ -519,7 +527,12 @@ impl Raster {
             if !(x.is_finite() && y.is_finite()) {
                 return;
             }
-            rect = [fmin(rect[0], x), fmax(rect[1], x), fmin(rect[2], y), fmax(rect[3], y)];
+            rect = [
+                fmin(rect[0], x),
+                fmax(rect[1], x),
+                fmin(rect[2], y),
+                fmax(rect[3], y),
+            ];
             zmin = fmin(zmin, q[2]);
         }
         // Hidden behind what is drawn already (most triangles of partly visible cells).
@@ -537,9 +550,7 @@ impl Raster {
         let mut wrote = false;
         // Round half away from zero (by truncation: `round` is a library call on baseline x86).
         let half = |v: f32| if v >= 0.0 { v + 0.5 } else { v - 0.5 };
-        let snap = |(x, y): (f32, f32)| {
-            (half(x * SUB as f32) as i64, half(y * SUB as f32) as i64)
-        };
+        let snap = |(x, y): (f32, f32)| (half(x * SUB as f32) as i64, half(y * SUB as f32) as i64);
         let v0 = snap(xy[0]);
         for i in 1..n - 1 {
             wrote |= self.fill(v0, snap(xy[i]), snap(xy[i + 1]), id, w);
@@ -591,10 +602,11 @@ impl Raster {
         if x0 > x1 || y0 > y1 {
             return false;
         }
-        // Edge p→q: E(P) = (q.x − p.x)(P.y − p.y) − (q.y − p.y)(P.x − p.x), at the first pixel
-        // centre, with its steps per pixel in x and y. A pixel centre exactly on an edge belongs
-        // to the triangle only for a top edge (horizontal, going right) or a left edge (going
-        // up); the other triangle on that edge sees it reversed, so exactly one of them draws it.
+        // Edge p→q: E(P) = (q.x − p.x)(P.y − p.y) − (q.y − p.y)(P.x − p.x), at the first
+        // pixel centre, with its steps per pixel in x and y. A pixel centre exactly on an edge
+        // belongs to the triangle only for a top edge (horizontal, going right) or a left edge
+        // (going up); the other triangle on that edge sees it reversed, so exactly one of them
+        // draws it.
         let edge = |p: (i64, i64), q: (i64, i64)| -> (i64, i64, i64) {
             let dx = q.0 - p.0;
             let dy = q.1 - p.1;
@@ -612,7 +624,7 @@ impl Raster {
         let wide = x1 - x0 > 8;
         let kmax = x1 - x0;
         let inv = [sx0, sx1, sx2].map(|s| if s != 0 { 1.0 / s as f64 } else { 0.0 });
-        for y in y0..=y1 {
+        for y in y0..y1 + 1 {
             let row = y as usize * width;
             let wrow = w[1] * y as f32 + w[2];
             let (mut k0, mut k1) = (0, kmax);
@@ -625,7 +637,7 @@ impl Raster {
             }
             if k0 <= k1 {
                 let (mut e0, mut e1, mut e2) = (r0 + sx0 * k0, r1 + sx1 * k0, r2 + sx2 * k0);
-                let span = row + (x0 + k0) as usize..=row + (x0 + k1) as usize;
+                let span = row + (x0 + k0) as usize..row + (x0 + k1) as usize + 1;
                 let mut seen = false;
                 for ((z, idx), x) in self.zbuf[span.clone()]
                     .iter_mut()
@@ -655,8 +667,8 @@ impl Raster {
         }
         if wrote {
             let (tx0, tx1) = (x0 as usize / HIZ, x1 as usize / HIZ);
-            for ty in y0 as usize / HIZ..=y1 as usize / HIZ {
-                self.hiz_dirty[ty * self.tiles_w + tx0..=ty * self.tiles_w + tx1].fill(true);
+            for ty in y0 as usize / HIZ..y1 as usize / HIZ + 1 {
+                self.hiz_dirty[ty * self.tiles_w + tx0..ty * self.tiles_w + tx1 + 1].fill(true);
             }
         }
         wrote
@@ -717,11 +729,122 @@ fn clip(src: &[[f32; 3]], dst: &mut [[f32; 3]; 9], dist: impl Fn(&[f32; 3]) -> f
             n += 1;
         }
         if (da >= 0.0) != (db >= 0.0) && n < 9 {
-            let (pi, po, di, dout) = if da >= 0.0 { (a, b, da, db) } else { (b, a, db, da) };
+            let (pi, po, di, dout) = if da >= 0.0 {
+                (a, b, da, db)
+            } else {
+                (b, a, db, da)
+            };
             let t = di / (di - dout);
             dst[n] = std::array::from_fn(|k| pi[k] + t * (po[k] - pi[k]));
             n += 1;
         }
     }
     n
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::World;
+
+    /// Every pixel centre inside a triangulated square is drawn by exactly one triangle, also
+    /// where edges pass exactly through pixel centres (the top-left rule), and none twice.
+    #[test]
+    fn render_fill_covers_each_pixel_once() -> crate::Result<()> {
+        let scene = RenderScene::new(&World::default())?;
+        let cam = RasterCam {
+            w: 40,
+            h: 40,
+            fx: 1.0,
+            fy: 1.0,
+            cx: 0.0,
+            cy: 0.0,
+        };
+        let mut r = Raster::default();
+        // A 6x6 grid of vertices over [4, 36]², interior ones moved off the lattice (some by
+        // whole pixels, so edges run exactly through pixel centres), split both ways.
+        let n = 6;
+        let vert = |i: i64, j: i64| -> (i64, i64) {
+            let inner = i > 0 && i < n - 1 && j > 0 && j < n - 1;
+            let (dx, dy) = if inner {
+                (
+                    ((i * 7 + j * 3) % 5 - 2) * 8,
+                    ((i * 5 + j * 11) % 7 - 3) * 5,
+                )
+            } else {
+                (0, 0)
+            };
+            (
+                (4 + i * 32 / (n - 1)) * SUB + dx,
+                (4 + j * 32 / (n - 1)) * SUB + dy,
+            )
+        };
+        let mut count = vec![0u32; 40 * 40];
+        let mut tris = Vec::new();
+        for i in 0..n - 1 {
+            for j in 0..n - 1 {
+                let (a, b, c, d) = (
+                    vert(i, j),
+                    vert(i + 1, j),
+                    vert(i + 1, j + 1),
+                    vert(i, j + 1),
+                );
+                if (i + j) % 2 == 0 {
+                    tris.push((a, b, c));
+                    tris.push((a, c, d));
+                } else {
+                    tris.push((a, b, d));
+                    tris.push((b, c, d));
+                }
+            }
+        }
+        // Both windings, as the rasterizer sees front and back faces.
+        for (k, &(a, b, c)) in tris.iter().enumerate() {
+            r.prepare(&scene, cam);
+            let (b, c) = if k % 3 == 0 { (c, b) } else { (b, c) };
+            r.fill(a, b, c, 7, [0.0, 0.0, 1.0]);
+            for (n, &id) in count.iter_mut().zip(&r.ids) {
+                *n += u32::from(id == 7);
+            }
+        }
+        for y in 0..40 {
+            for x in 0..40 {
+                let c = count[y * 40 + x];
+                let inside = (5..36).contains(&x) && (5..36).contains(&y);
+                let outside = !(4..=36).contains(&x) || !(4..=36).contains(&y);
+                assert!(c <= 1, "pixel ({x}, {y}) drawn {c} times");
+                if inside {
+                    assert_eq!(c, 1, "pixel ({x}, {y}) not drawn");
+                }
+                if outside {
+                    assert_eq!(c, 0, "pixel ({x}, {y}) outside drawn");
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// A triangle crossing the near plane keeps the part in front: its clipped vertices are
+    /// shared bit for bit with its neighbour's, so the pair leaves no crack.
+    #[test]
+    fn render_clip_shares_crossings() {
+        let a = [0.3, -0.2, -1.0];
+        let b = [0.1, 0.4, 2.0];
+        let mut out1 = [[0.0f32; 3]; 9];
+        let mut out2 = [[0.0f32; 3]; 9];
+        let n1 = clip(&[a, b, [1.0, 1.0, 3.0]], &mut out1, |q| q[2] - NEAR);
+        let n2 = clip(&[b, a, [-1.0, 0.5, 1.0]], &mut out2, |q| q[2] - NEAR);
+        let cross1: Vec<_> = out1[..n1]
+            .iter()
+            .filter(|q| q[2] == NEAR || (q[2] - NEAR).abs() < 1e-6)
+            .collect();
+        let cross2: Vec<_> = out2[..n2]
+            .iter()
+            .filter(|q| q[2] == NEAR || (q[2] - NEAR).abs() < 1e-6)
+            .collect();
+        assert!(
+            cross1.iter().any(|p| cross2.contains(p)),
+            "{cross1:?} {cross2:?}"
+        );
+    }
 }

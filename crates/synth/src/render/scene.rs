@@ -2,6 +2,9 @@
 //! planes and texture gradients, baked and mip-mapped textures, switched-on lights, and a uniform
 //! grid of triangles for frustum and occlusion culling and for shadow rays.
 
+// `!(x > y)` is deliberate here: it is also true for NaN, which must fail the check.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use super::raster::Stamps;
 use super::texture::{self, Texture};
 use crate::error::{Result, SynthError};
@@ -61,7 +64,8 @@ impl SceneTri {
         // Gradients of the barycentric coordinates of p1 and p2 within the plane.
         let ga = scale(cross(e2, n), 1.0 / nn);
         let gb = scale(cross(n, e1), 1.0 / nn);
-        let uv = t.uv.map(|c| c.map(|x| if x.is_finite() { x as f64 } else { 0.0 }));
+        let uv =
+            t.uv.map(|c| c.map(|x| if x.is_finite() { x as f64 } else { 0.0 }));
         let affine = |k: usize| -> [f32; 4] {
             let d1 = uv[1][k] - uv[0][k];
             let d2 = uv[2][k] - uv[0][k];
@@ -147,7 +151,7 @@ impl Mips {
                 wshift: cw.trailing_zeros(),
                 su: cw as f32 / repeat[0],
                 sv: ch as f32 / repeat[1],
-                texels: cur.iter().map(|&c| pack(lin.encode(c))).collect(),
+                texels: cur.iter().map(|&c| pack(c.map(linear_to_srgb8))).collect(),
             });
             if cw == 1 && ch == 1 {
                 break;
@@ -297,45 +301,15 @@ fn resample(src: &[[f32; 3]], w: usize, h: usize, nw: usize, nh: usize) -> Vec<[
     out
 }
 
-/// Lookup tables between sRGB bytes and linear light.
+/// Lookup table from sRGB bytes to linear light.
 pub(crate) struct Luts {
     /// sRGB byte → linear 0–1.
     pub to_linear: [f32; 256],
-    /// Linear 0–[`Luts::ENCODE_MAX`] in [`Luts::ENCODE_STEPS`] steps → tone-mapped sRGB byte
-    /// (an array, so clamped indices need no bounds check).
-    pub encode: Box<[u8; Luts::ENCODE_STEPS]>,
 }
 
-impl Luts {
-    /// Entries of the encode table.
-    pub const ENCODE_STEPS: usize = 8192;
-    /// Linear value of the last entry (everything brighter saturates).
-    pub const ENCODE_MAX: f32 = 4.0;
-
-    /// Tone-mapped sRGB byte of a linear value (through the table).
-    #[inline(always)]
-    pub fn encode_one(&self, x: f32) -> u8 {
-        let scale = Self::ENCODE_STEPS as f32 / Self::ENCODE_MAX;
-        // `as i32` saturates (NaN → 0) in one instruction.
-        let i = ((x * scale) as i32).clamp(0, Self::ENCODE_STEPS as i32 - 1);
-        self.encode[i as usize]
-    }
-
-    /// [`Luts::encode_one`] per channel.
-    pub fn encode(&self, c: [f32; 3]) -> [u8; 3] {
-        c.map(|x| self.encode_one(x))
-    }
-}
-
-/// Linear → display: identity below a knee, then a soft shoulder, so lamps and sunlit windows
-/// saturate gracefully instead of clipping hard; then the sRGB transfer curve.
-fn tone_srgb(x: f32) -> u8 {
-    const KNEE: f32 = 0.8;
-    let t = if x <= KNEE {
-        x.max(0.0)
-    } else {
-        KNEE + (1.0 - KNEE) * (1.0 - (-(x - KNEE) / (1.0 - KNEE)).exp())
-    };
+/// The sRGB transfer curve (linear 0–1 → sRGB byte), exact, for building mip levels.
+fn linear_to_srgb8(x: f32) -> u8 {
+    let t = x.clamp(0.0, 1.0);
     let s = if t <= 0.003_130_8 {
         12.92 * t
     } else {
@@ -344,7 +318,7 @@ fn tone_srgb(x: f32) -> u8 {
     (s * 255.0 + 0.5).clamp(0.0, 255.0) as u8
 }
 
-/// The process-wide lookup tables (built once, read by every renderer).
+/// The process-wide lookup table (built once, read by every renderer).
 pub(crate) fn luts() -> &'static Luts {
     static LUTS: std::sync::OnceLock<Luts> = std::sync::OnceLock::new();
     LUTS.get_or_init(|| {
@@ -352,11 +326,7 @@ pub(crate) fn luts() -> &'static Luts {
         for (i, v) in to_linear.iter_mut().enumerate() {
             *v = srgb_to_linear(i as f32 / 255.0);
         }
-        let mut encode = Box::new([0u8; Luts::ENCODE_STEPS]);
-        for (i, e) in encode.iter_mut().enumerate() {
-            *e = tone_srgb((i as f32 + 0.5) * Luts::ENCODE_MAX / Luts::ENCODE_STEPS as f32);
-        }
-        Luts { to_linear, encode }
+        Luts { to_linear }
     })
 }
 
@@ -656,7 +626,10 @@ impl RenderScene {
         let mut lights = Lights::default();
         for l in &world.lights {
             let p = [l.position.x, l.position.y, l.position.z];
-            if l.on && l.intensity.is_finite() && l.intensity > 0.0 && p.iter().all(|c| c.is_finite())
+            if l.on
+                && l.intensity.is_finite()
+                && l.intensity > 0.0
+                && p.iter().all(|c| c.is_finite())
             {
                 lights.pos.push(p);
                 lights.intensity.push(l.intensity);
@@ -731,12 +704,7 @@ impl RenderScene {
     /// True when the segment `from → to` hits a triangle of the scene (fixtures — emissive
     /// materials — excepted, so a lamp does not shadow itself). Walks the grid with a 3-D DDA;
     /// `stamps` marks triangles already tested on this ray.
-    pub(crate) fn occluded(
-        &self,
-        from: [f32; 3],
-        to: [f32; 3],
-        stamps: &mut Stamps,
-    ) -> bool {
+    pub(crate) fn occluded(&self, from: [f32; 3], to: [f32; 3], stamps: &mut Stamps) -> bool {
         let stamp = stamps.next();
         let g = &self.grid;
         let dir = sub32(to, from);
@@ -901,14 +869,13 @@ fn mark_cullable(tris: &mut [SceneTri]) {
         closed[r] &= closed_tri[i];
         let v = tris[i].v.map(|p| p.map(|c| c as f64));
         volume[r] += dot(v[0], cross(v[1], v[2])) / 6.0;
-        area[r] += dot(cross(sub(v[1], v[0]), sub(v[2], v[0])), cross(sub(v[1], v[0]), sub(v[2], v[0])))
-            .sqrt()
-            / 2.0;
+        let n2 = cross(sub(v[1], v[0]), sub(v[2], v[0]));
+        area[r] += dot(n2, n2).sqrt() / 2.0;
     }
-    for i in 0..n {
+    for (i, t) in tris.iter_mut().enumerate() {
         let r = find(&mut parent, i as u32) as usize;
         // Thin double-sided sheets have ~zero volume: demand a volume that a real solid has.
-        tris[i].cull = closed[r] && volume[r] > 1e-4 * area[r].powf(1.5);
+        t.cull = closed[r] && volume[r] > 1e-4 * area[r].powf(1.5);
     }
 }
 

@@ -7,9 +7,12 @@
 //! over a surface, so it is evaluated exactly on a grid of every fourth pixel and interpolated in
 //! between from the grid nodes that see the same surface (the same dominant plane, or the same
 //! triangle off the planes); a pixel with no such node near it is lit exactly. Interpolating
-//! across tiles also hides the seams that per-tile light lists would leave. Without shadows, light passes through walls (a lamp in
-//! the next room brightens this side of the floor a little); with `shadows`, every light is
-//! tested with a ray through the scene's grid.
+//! across tiles also hides the seams that per-tile light lists would leave. Without shadows,
+//! light passes through walls (a lamp in the next room brightens this side of the floor a
+//! little); with `shadows`, every light is tested with a ray through the scene's grid.
+
+// `!(x > y)` is deliberate here: it is also true for NaN, which must fail the check.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::RenderMode;
 use super::lens::Lens;
@@ -92,8 +95,12 @@ pub(crate) struct Shade {
     /// What each node sees: its dominant plane, or its triangle where it has none (see
     /// [`light_key`]).
     node_id: Vec<u32>,
-    /// Radiance of the row being shaded.
-    row: Vec<[f32; 3]>,
+    /// Radiance of the row being shaded (red, green, blue) and its bytes.
+    row: (Vec<f32>, Vec<f32>, Vec<f32>, super::post::RowBytes),
+    /// Per pixel column: the light-grid nodes on either side and the weight of the right one.
+    cols: Vec<(u32, u32, f32)>,
+    /// Per pixel row: the same for the nodes above and below.
+    rows: Vec<(u32, u32, f32)>,
     width: usize,
     height: usize,
 }
@@ -113,6 +120,16 @@ impl Shade {
             self.nodes = [(w - 1).div_ceil(STEP) + 1, (h - 1).div_ceil(STEP) + 1];
             self.node_e.resize(self.nodes[0] * self.nodes[1], 0.0);
             self.node_id.resize(self.nodes[0] * self.nodes[1], NONE);
+            let table = |n: usize, nodes: usize| -> Vec<(u32, u32, f32)> {
+                (0..n)
+                    .map(|x| {
+                        let (k, f) = grid_pos(x, n);
+                        (k as u32, (k + 1).min(nodes - 1) as u32, f)
+                    })
+                    .collect()
+            };
+            self.cols = table(w, self.nodes[0]);
+            self.rows = table(h, self.nodes[1]);
             self.width = w;
             self.height = h;
         }
@@ -336,39 +353,37 @@ impl Shade {
         let cam = view.cam;
         let direct = lens.map.is_empty();
         let mats = &scene.materials;
-        let mut row_rad = std::mem::take(&mut self.row);
-        row_rad.resize(w, [0.0; 3]);
-        let (mut sink, sensor) = match sink {
-            Sink::Bytes(b, s) => (Sink::Bytes(b, s), s),
-            other => (
-                other,
-                Sensor {
-                    noise: 0.0,
-                    vignetting: 0.0,
-                    seed: 0,
-                },
-            ),
+        let mut rowbuf = std::mem::take(&mut self.row);
+        let (rr, rg, rb, bytes_tmp) = &mut rowbuf;
+        for v in [&mut *rr, &mut *rg, &mut *rb] {
+            v.resize(w, 0.0);
+        }
+        let finisher = match &sink {
+            Sink::Bytes(_, s) => Some(super::post::Finisher::new(*s, w, h)),
+            Sink::Accum(..) => None,
         };
-        let (vcx, vcy) = ((w as f32 - 1.0) / 2.0, (h as f32 - 1.0) / 2.0);
-        let vig = sensor.vignetting.clamp(0.0, 1.0) / (vcx * vcx + vcy * vcy).max(1.0);
-        let amp = super::post::noise_amp(sensor.noise);
-        let noise_key = super::post::mix(sensor.seed ^ 0x5851_f42d_4c95_7f2d);
+        let mut sink = sink;
         // The triangle of the previous pixel, and what it implies (runs of pixels share one).
         let mut cur = NONE;
         let mut t = &VisTri::EMPTY;
         let mut m = &mats[0];
         let mut key = NONE;
         for y in 0..h {
-            let (j0, fy) = grid_pos(y, h);
-            let j1 = (j0 + 1).min(ny - 1);
+            let (j0, j1, fy) = self.rows[y];
+            let (j0, j1) = (j0 as usize, j1 as usize);
             let row = y * w;
             let vis_row = &self.vis[row..row + w];
             let w_row = &self.w[row..row + w];
-            let (id0, id1) = (&self.node_id[j0 * nx..][..nx], &self.node_id[j1 * nx..][..nx]);
+            let (id0, id1) = (
+                &self.node_id[j0 * nx..][..nx],
+                &self.node_id[j1 * nx..][..nx],
+            );
             let (e0, e1) = (&self.node_e[j0 * nx..][..nx], &self.node_e[j1 * nx..][..nx]);
-            for (x, ((&id, &wv), out)) in vis_row.iter().zip(w_row).zip(row_rad.iter_mut()).enumerate() {
+            let outs = rr.iter_mut().zip(rg.iter_mut()).zip(rb.iter_mut());
+            let pixels = vis_row.iter().zip(w_row).zip(outs).zip(&self.cols);
+            for (x, (((&id, &wv), ((or, og), ob)), &(k0, k1, fx))) in pixels.enumerate() {
                 if id == NONE {
-                    *out = background;
+                    (*or, *og, *ob) = (background[0], background[1], background[2]);
                     continue;
                 }
                 if id != cur {
@@ -385,9 +400,13 @@ impl Shade {
                     (s.sx, s.sy)
                 };
                 // Light: interpolated on the grid when its four nodes see this surface.
-                let (k0, fx) = grid_pos(x, w);
-                let k1 = (k0 + 1).min(nx - 1);
-                let same = [id0[k0] == key, id0[k1] == key, id1[k0] == key, id1[k1] == key];
+                let (k0, k1) = (k0 as usize, k1 as usize);
+                let same = [
+                    id0[k0] == key,
+                    id0[k1] == key,
+                    id1[k0] == key,
+                    id1[k1] == key,
+                ];
                 let e = if same[0] && same[1] && same[2] && same[3] {
                     let top = e0[k0] + (e0[k1] - e0[k0]) * fx;
                     let bot = e1[k0] + (e1[k1] - e1[k0]) * fx;
@@ -395,7 +414,12 @@ impl Shade {
                 } else if same[0] || same[1] || same[2] || same[3] {
                     // Near an edge of the surface: the bilinear weights of the nodes on it,
                     // renormalised (light varies little over the few pixels to them).
-                    let wts = [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy];
+                    let wts = [
+                        (1.0 - fx) * (1.0 - fy),
+                        fx * (1.0 - fy),
+                        (1.0 - fx) * fy,
+                        fx * fy,
+                    ];
                     let vals = [e0[k0], e0[k1], e1[k0], e1[k1]];
                     let (mut sw, mut se) = (0.0, 0.0);
                     for k in 0..4 {
@@ -446,45 +470,42 @@ impl Shade {
                     let ry = (sy - cam.cy) / cam.fy;
                     let dist = z * (1.0 + rx * rx + ry * ry).sqrt();
                     let f = (-scene.haze * dist).exp();
-                    for k in 0..3 {
-                        rad[k] = rad[k] * f + scene.haze_color[k] * (1.0 - f);
+                    for (r, hc) in rad.iter_mut().zip(scene.haze_color) {
+                        *r = *r * f + hc * (1.0 - f);
                     }
                 }
-                *out = rad;
+                (*or, *og, *ob) = (rad[0], rad[1], rad[2]);
             }
             match &mut sink {
                 Sink::Bytes(bytes, _) => {
-                    let dy = y as f32 - vcy;
-                    let out_row = &mut bytes[3 * row..3 * (row + w)];
-                    for (x, (px, rad)) in out_row.chunks_exact_mut(3).zip(&row_rad).enumerate() {
-                        let dx = x as f32 - vcx;
-                        let f = 1.0 - vig * (dx * dx + dy * dy);
-                        let mut c = [
-                            lut.encode_one(rad[0] * f),
-                            lut.encode_one(rad[1] * f),
-                            lut.encode_one(rad[2] * f),
-                        ];
-                        if amp > 0 {
-                            super::post::add_noise(&mut c, noise_key, row + x, amp);
-                        }
-                        px.copy_from_slice(&c);
+                    if let Some(f) = &finisher {
+                        f.row(
+                            y,
+                            1.0,
+                            rr,
+                            rg,
+                            rb,
+                            bytes_tmp,
+                            &mut bytes[3 * row..3 * (row + w)],
+                        );
                     }
                 }
                 Sink::Accum(acc, first) => {
                     let acc_row = &mut acc[row..row + w];
-                    if *first {
-                        acc_row.copy_from_slice(&row_rad);
-                    } else {
-                        for (a, r) in acc_row.iter_mut().zip(&row_rad) {
-                            for k in 0..3 {
-                                a[k] += r[k];
-                            }
+                    for (a, ((&r, &g), &b)) in acc_row.iter_mut().zip(rr.iter().zip(&*rg).zip(&*rb))
+                    {
+                        if *first {
+                            *a = [r, g, b];
+                        } else {
+                            a[0] += r;
+                            a[1] += g;
+                            a[2] += b;
                         }
                     }
                 }
             }
         }
-        self.row = row_rad;
+        self.row = rowbuf;
         raster.stats.lit_exactly = exact;
     }
 }
@@ -494,7 +515,11 @@ impl Shade {
 /// triangle off the dominant planes is its own surface.
 #[inline(always)]
 fn light_key(t: &VisTri, id: u32) -> u32 {
-    if t.plane != 0 { t.plane & 0x7fff_ffff } else { 0x8000_0000 | id }
+    if t.plane != 0 {
+        t.plane & 0x7fff_ffff
+    } else {
+        0x8000_0000 | id
+    }
 }
 
 /// The light-grid cell of pixel coordinate `x` (of `n`) and the fraction of the way to the next
@@ -553,7 +578,13 @@ fn direct8(tl: &TileLights, p: [f32; 3], n: [f32; 3]) -> f32 {
 }
 
 /// Like [`direct8`], but each light counts only when a ray to it is clear.
-fn shadowed(scene: &RenderScene, stamps: &mut Stamps, tl: &TileLights, p: [f32; 3], n: [f32; 3]) -> f32 {
+fn shadowed(
+    scene: &RenderScene,
+    stamps: &mut Stamps,
+    tl: &TileLights,
+    p: [f32; 3],
+    n: [f32; 3],
+) -> f32 {
     let mut sum = 0.0;
     // Start the ray a little off the surface so it does not hit its own triangle.
     let from = [p[0] + n[0] * 2e-3, p[1] + n[1] * 2e-3, p[2] + n[2] * 2e-3];
@@ -567,7 +598,11 @@ fn shadowed(scene: &RenderScene, stamps: &mut Stamps, tl: &TileLights, p: [f32; 
         let d = [to[0] - from[0], to[1] - from[1], to[2] - from[2]];
         let len = dot32(d, d).sqrt();
         let short = if len > 0.1 { (len - 0.05) / len } else { 0.0 };
-        let end = [from[0] + d[0] * short, from[1] + d[1] * short, from[2] + d[2] * short];
+        let end = [
+            from[0] + d[0] * short,
+            from[1] + d[1] * short,
+            from[2] + d[2] * short,
+        ];
         if !scene.occluded(from, end, stamps) {
             sum += c;
         }

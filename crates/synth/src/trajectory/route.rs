@@ -443,8 +443,3 @@ fn components(adj: &[Vec<(usize, f64)>]) -> Vec<usize> {
     }
     comp
 }
-
-#[cfg(test)]
-pub(crate) fn components_for_test(g: &Graph<'_>) -> Vec<usize> {
-    g.comp.clone()
-}
