@@ -25,6 +25,8 @@ enum Command {
     Eval(cmd::eval::EvalArgs),
     /// Render a synthetic posed dataset of the built-in building or a model file.
     Synth(cmd::synth::SynthArgs),
+    /// Write the network's view of images (grey, resize, CLAHE, ...) as PNGs.
+    Preprocess(cmd::preprocess::PreprocessArgs),
     /// Speed figures of each stage, beside the reference peer where one is installed.
     Bench(cmd::bench::BenchArgs),
 }
@@ -35,6 +37,7 @@ fn main() -> ExitCode {
         Command::Eval(args) => cmd::eval::run(&args),
         Command::Bench(args) => cmd::bench::run(&args),
         Command::Synth(args) => cmd::synth::run(&args),
+        Command::Preprocess(args) => cmd::preprocess::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

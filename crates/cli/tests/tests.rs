@@ -2,5 +2,6 @@
 
 mod eval_cli;
 mod metrics_reference;
+mod preprocess_cli;
 mod synth_cli;
 mod util;

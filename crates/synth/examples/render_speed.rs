@@ -6,6 +6,9 @@
 //! cargo run --release -p synth --example render_speed [-- FRAMES [PNG_DIR]]
 //! ```
 //! With `PNG_DIR`, writes one image per mode (and a distorted-lens and a shadowed one) there.
+//! `RENDER_SPEED_WORLD=default` measures the procedural default building instead, along a
+//! natural walk; `RENDER_SPEED_ONLY=textured@160` (mode@width) measures one case only. Times
+//! are the thread's CPU time where Linux reports it (a shared machine inflates wall time).
 
 use geom::{Camera, Distortion, Pose};
 use nalgebra::Point3;
@@ -19,7 +22,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let frames: usize = args.next().map(|s| s.parse()).transpose()?.unwrap_or(2000);
     let png_dir = args.next();
     let t0 = Instant::now();
-    let world = office();
+    // RENDER_SPEED_WORLD=default measures the procedural default building along a natural walk
+    // instead of the office block built here.
+    let default_world = std::env::var("RENDER_SPEED_WORLD").is_ok_and(|w| w == "default");
+    let world = if default_world {
+        synth::procedural::default_world(1, synth::Variant::Normal)
+    } else {
+        office()
+    };
     let scene = RenderScene::new(&world)?;
     println!(
         "world: {} triangles, {} lights, {} materials; scene prepared in {:.0} ms",
@@ -28,7 +38,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         world.materials.len(),
         t0.elapsed().as_secs_f64() * 1e3
     );
-    let poses = walk(frames);
+    let poses: Vec<Pose> = if default_world {
+        let cfg = synth::trajectory::WalkConfig::default();
+        synth::trajectory::walk(&world, &cfg, frames, 1)?
+            .into_iter()
+            .map(|f| f.pose)
+            .collect()
+    } else {
+        walk(frames)
+    };
     for (w, h) in [(160u32, 120u32), (320, 240)] {
         let camera = Camera::from_hfov(w, h, 60f64.to_radians())?;
         for mode in RenderMode::ALL {

@@ -22,6 +22,10 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+/// People who would pass within this distance (m) of the camera are left out of that frame: a
+/// camera inside a figure would see only a shirt, and real walkers step around a camera.
+pub const PERSON_CLEARANCE_M: f64 = 0.6;
+
 /// Where the building comes from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum WorldSource {
@@ -171,7 +175,10 @@ pub fn run(
         )));
     }
     let (mut world, warnings) = build_world(cfg)?;
-    let crowd = (cfg.variant == Variant::People).then(|| Crowd::new(&mut world, 12, cfg.seed));
+    let crowd = (cfg.variant == Variant::People).then(|| {
+        let count = Crowd::suggested_count(&world);
+        Crowd::new(&mut world, count, cfg.seed)
+    });
     let rig = rig_of(cfg.camera);
     let camera = trajectory::camera_for(&rig, cfg.width, cfg.height, cfg.seed)?;
     let (shots, cuts, fps) = plan_shots(&world, cfg, &rig)?;
@@ -196,7 +203,10 @@ pub fn run(
                 };
                 let extra = crowd
                     .as_ref()
-                    .map(|c| c.triangles_at(&world, shot.frame.t))
+                    .map(|c| {
+                        let centre = nalgebra::Point3::from(shot.frame.pose.position());
+                        c.triangles_clear_of(&world, shot.frame.t, &centre, PERSON_CLEARANCE_M)
+                    })
                     .unwrap_or_default();
                 let img = renderer.render(&scene, &camera, &shot.frame.pose, &opts, &extra)?;
                 write_png(&frame_path, &encode_rgb(&img.rgb)?)?;

@@ -43,7 +43,14 @@ pub fn contact_sheet(cfg: &SynthConfig) -> Result<Vec<u8>> {
             let crowd = (variant == Variant::People).then(|| Crowd::new(&mut world, 12, cfg.seed));
             let extra = crowd
                 .as_ref()
-                .map(|c| c.triangles_at(&world, shot.t))
+                .map(|c| {
+                    c.triangles_clear_of(
+                        &world,
+                        shot.t,
+                        &nalgebra::Point3::from(shot.pose.position()),
+                        crate::dataset::PERSON_CLEARANCE_M,
+                    )
+                })
                 .unwrap_or_default();
             let scene = RenderScene::new(&world)?;
             let mut renderer = Renderer::new();

@@ -2,4 +2,6 @@
 
 pub mod bench;
 pub mod eval;
+pub mod parse;
+pub mod preprocess;
 pub mod synth;

@@ -40,7 +40,7 @@ pub struct SynthArgs {
     #[arg(long, default_value_t = 6)]
     sequences: usize,
     /// Image size, WIDTHxHEIGHT.
-    #[arg(long, default_value = "320x240", value_parser = parse_size)]
+    #[arg(long, default_value = "320x240", value_parser = crate::cmd::parse::size)]
     size: (u32, u32),
     /// Render mode: shaded, textured, edges, gradmag.
     #[arg(long, default_value = "textured")]
@@ -93,18 +93,6 @@ enum Sample {
     Walk,
     Cuts,
     Random,
-}
-
-fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("'{s}': expected WIDTHxHEIGHT, e.g. 320x240"))?;
-    let parse = |v: &str| {
-        v.trim()
-            .parse::<u32>()
-            .map_err(|_| format!("'{s}': expected WIDTHxHEIGHT"))
-    };
-    Ok((parse(w)?, parse(h)?))
 }
 
 /// The `--json` document.

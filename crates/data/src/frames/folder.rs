@@ -74,18 +74,9 @@ fn file_name(path: &Path) -> String {
         .unwrap_or_default()
 }
 
-/// Decodes one image file to RGB. The format comes from the file's content, not its extension,
-/// so a PNG saved as `.jpg` still reads.
+/// Decodes one image file to RGB (see [`super::decode_image`]).
 fn decode(path: &Path) -> Result<image::RgbImage> {
-    let reader = image::ImageReader::open(path)
-        .map_err(|e| DataError::io(path, e))?
-        .with_guessed_format()
-        .map_err(|e| DataError::io(path, e))?;
-    let img = reader.decode().map_err(|e| DataError::Frames {
-        path: path.to_path_buf(),
-        msg: format!("cannot decode image: {e}"),
-    })?;
-    Ok(img.into_rgb8())
+    Ok(super::decode_image(path)?.into_rgb8())
 }
 
 impl Iterator for ImageFolder {

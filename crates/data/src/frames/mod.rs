@@ -8,10 +8,12 @@
 //!
 //! Video needs the `video` cargo feature (default on; FFmpeg's libraries through `ffmpeg-next`).
 
+mod decode;
 mod folder;
 #[cfg(feature = "video")]
 mod video;
 
+pub use decode::decode_image;
 pub use folder::{ImageFolder, natural_cmp};
 #[cfg(feature = "video")]
 pub use video::VideoFile;

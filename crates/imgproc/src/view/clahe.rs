@@ -1,9 +1,11 @@
 //! CLAHE (contrast-limited adaptive histogram equalisation), bit-identical to OpenCV's
 //! `createCLAHE(clip, (tiles, tiles)).apply()` on 8-bit images.
 //!
-//! Why by hand: neither `image` nor `fast_image_resize` has CLAHE, and `kornia-imgproc` is not a
-//! dependency (its CLAHE is not OpenCV's, either). The ceiling-camera networks are trained on
-//! OpenCV-made views, so the pixels must be OpenCV's. This re-derives `clahe.cpp`
+//! Why by hand: neither `image` nor `fast_image_resize` has CLAHE. `kornia-imgproc` 0.2 has one,
+//! but it reproduces the fused multiply-adds that OpenCV's aarch64 wheels are compiled with; the
+//! x86-64 wheels do not fuse, and an emulation of kornia's arithmetic differs from
+//! opencv-python 5.0 (x86-64) on 0.17 % of the fixture pixels. The ceiling-camera networks are
+//! trained on OpenCV-made views, so the pixels must be OpenCV's. This re-derives `clahe.cpp`
 //! (`CLAHE_CalcLut_Body`, `CLAHE_Interpolation_Body`) step by step:
 //!
 //! 1. If the size is not divisible by the grid, the image is padded on the right and bottom with
@@ -99,103 +101,129 @@ pub(crate) fn clahe_with(
     };
     let (tw, th) = (ew / t, eh / t);
     let area = tw * th;
-    let hist_src: &[u8] = if (ew, eh) == (w, h) {
-        src.as_raw()
-    } else {
+    if (ew, eh) != (w, h) {
         pad_reflect101(src.as_raw(), (w, h), (ew, eh), scratch);
-        &scratch.ext
-    };
+    }
 
     let lut_scale = 255.0f32 / area as f32;
     let clip_limit = ((clip as f64 * area as f64 / 256.0) as i64).max(1) as u32;
-    scratch.luts.resize(t * t, [0; 256]);
-    for ty in 0..t {
-        for tx in 0..t {
-            let mut hist = tile_histogram(hist_src, ew, (tx * tw, ty * th), (tw, th));
-            clip_histogram(&mut hist, clip_limit);
-            // Cumulative sum (serial), then the scaling in a separate loop that vectorises.
-            let mut sum = 0u32;
-            for c in hist.iter_mut() {
-                sum += *c;
-                *c = sum;
-            }
-            let lut = &mut scratch.luts[ty * t + tx];
-            for (l, &c) in lut.iter_mut().zip(hist.iter()) {
-                *l = round_u8(c as f32 * lut_scale);
-            }
-        }
-    }
-    interpolate(src.as_raw(), dst, (w, h), (tw, th), t, scratch);
+    let grid = Grid {
+        size: (w, h),
+        stride: ew,
+        tile: (tw, th),
+        tiles: t,
+        clip_limit,
+        lut_scale,
+    };
+    // The padded copy (if any) is moved out of `scratch` for the call and put back afterwards.
+    let ext = std::mem::take(&mut scratch.ext);
+    let hist_src = if (ew, eh) == (w, h) {
+        src.as_raw()
+    } else {
+        &ext
+    };
+    run_core(src.as_raw(), hist_src, dst, &grid, scratch);
+    scratch.ext = ext;
     Ok(())
 }
 
+/// Sizes and parameters of one CLAHE run.
+struct Grid {
+    /// Image size.
+    size: (usize, usize),
+    /// Row length of the (possibly padded) image the histograms read.
+    stride: usize,
+    /// Tile size.
+    tile: (usize, usize),
+    /// Tiles per axis.
+    tiles: usize,
+    /// Absolute clip limit (counts per bin).
+    clip_limit: u32,
+    /// `255.f / tile area`.
+    lut_scale: f32,
+}
+
+/// Runs [`core`] compiled for AVX2 when the CPU has it: the same arithmetic (no fused
+/// multiply-add; Rust never contracts), so the same pixels, on wider vectors.
+fn run_core(src: &[u8], hist_src: &[u8], dst: &mut [u8], grid: &Grid, scratch: &mut ClaheScratch) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: `core_avx2` requires only AVX2, which the running CPU was just found to have.
+        unsafe { core_avx2(src, hist_src, dst, grid, scratch) };
+        return;
+    }
+    core(src, hist_src, dst, grid, scratch);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn core_avx2(src: &[u8], hist_src: &[u8], dst: &mut [u8], grid: &Grid, scratch: &mut ClaheScratch) {
+    core(src, hist_src, dst, grid, scratch);
+}
+
+/// Tile LUTs (steps 2-3) and interpolation (step 4).
+#[inline(always)]
+fn core(src: &[u8], hist_src: &[u8], dst: &mut [u8], grid: &Grid, scratch: &mut ClaheScratch) {
+    let t = grid.tiles;
+    let (tw, th) = grid.tile;
+    scratch.luts.resize(t * t, [0; 256]);
+    for ty in 0..t {
+        for tx in 0..t {
+            let mut hist = tile_histogram(hist_src, grid.stride, (tx * tw, ty * th), (tw, th));
+            clipped_cdf(&mut hist, grid.clip_limit);
+            let lut = &mut scratch.luts[ty * t + tx];
+            for (l, &c) in lut.iter_mut().zip(hist.iter()) {
+                // Counts are at most the tile area (< 2^31): the signed conversion vectorises.
+                *l = round_u8(c as i32 as f32 * grid.lut_scale);
+            }
+        }
+    }
+    interpolate(src, dst, grid.size, grid.tile, t, scratch);
+}
+
 /// 256-bin histogram of the `tw x th` tile at `(x0, y0)` of an image `stride` pixels wide.
-///
-/// Four partial histograms take the pixels in turn: flat regions would otherwise increment the
-/// same counter back to back and wait on each store. They are `u16` (half the memory to clear
-/// per tile) whenever a tile has fewer than 2^16 pixels.
+#[inline(always)]
 fn tile_histogram(
     img: &[u8],
     stride: usize,
     (x0, y0): (usize, usize),
     (tw, th): (usize, usize),
 ) -> [u32; 256] {
-    let rows = img
-        .chunks_exact(stride)
-        .skip(y0)
-        .take(th)
-        .map(|row| &row[x0..x0 + tw]);
     let mut hist = [0u32; 256];
-    if tw * th < 1 << 16 {
-        let mut part = [[0u16; 256]; 4];
-        for row in rows {
-            let mut quads = row.chunks_exact(4);
-            for q in &mut quads {
-                part[0][q[0] as usize] += 1;
-                part[1][q[1] as usize] += 1;
-                part[2][q[2] as usize] += 1;
-                part[3][q[3] as usize] += 1;
-            }
-            for &v in quads.remainder() {
-                part[0][v as usize] += 1;
-            }
-        }
-        for (i, h) in hist.iter_mut().enumerate() {
-            *h = part[0][i] as u32 + part[1][i] as u32 + part[2][i] as u32 + part[3][i] as u32;
-        }
-    } else {
-        for row in rows {
-            for &v in row {
-                hist[v as usize] += 1;
-            }
+    for row in img.chunks_exact(stride).skip(y0).take(th) {
+        for &v in &row[x0..x0 + tw] {
+            hist[v as usize] += 1;
         }
     }
     hist
 }
 
-/// Clips at `limit` and redistributes the excess as OpenCV does.
-fn clip_histogram(hist: &mut [u32; 256], limit: u32) {
+/// Clips at `limit`, redistributes the excess as OpenCV does and turns the histogram into its
+/// cumulative sum (one pass for the clipping, one for redistribution and summing).
+#[inline(always)]
+fn clipped_cdf(hist: &mut [u32; 256], limit: u32) {
     let mut clipped = 0u32;
     for c in hist.iter_mut() {
-        if *c > limit {
-            clipped += *c - limit;
-            *c = limit;
-        }
+        let excess = c.saturating_sub(limit);
+        clipped += excess;
+        *c -= excess;
     }
     let batch = clipped / 256;
+    // OpenCV adds one more to bins i = 0, step, 2 step, ... while i < 256 and the residual
+    // lasts, with step = max(256 / residual, 1).
     let mut residual = clipped - batch * 256;
-    for c in hist.iter_mut() {
-        *c += batch;
-    }
-    // OpenCV spreads the remainder one count at a time with a stride of 256 / residual.
-    if let Some(stride) = 256u32.checked_div(residual) {
-        let step = stride.max(1) as usize;
-        let mut i = 0;
-        while i < 256 && residual > 0 {
-            hist[i] += 1;
-            i += step;
+    let step = 256u32.checked_div(residual).unwrap_or(256).max(1) as usize;
+    let mut next = 0usize;
+    let mut sum = 0u32;
+    for (i, c) in hist.iter_mut().enumerate() {
+        let mut add = batch;
+        if i == next && residual > 0 {
+            add += 1;
             residual -= 1;
+            next += step;
         }
+        sum += *c + add;
+        *c = sum;
     }
 }
 
@@ -234,7 +262,7 @@ fn pad_reflect101(
 
 /// Tile coordinate of pixel `p`: `(first tile, second tile, weight of the second)` with OpenCV's
 /// `f32` arithmetic.
-#[inline]
+#[inline(always)]
 fn tile_coord(p: usize, inv: f32, tiles: usize) -> (usize, usize, f32) {
     let f = p as f32 * inv - 0.5f32;
     let t1 = f.floor();
@@ -245,6 +273,7 @@ fn tile_coord(p: usize, inv: f32, tiles: usize) -> (usize, usize, f32) {
 }
 
 /// Bilinear blend of the tile LUTs (step 4 of the module doc).
+#[inline(always)]
 fn interpolate(
     src: &[u8],
     dst: &mut [u8],
@@ -290,9 +319,7 @@ fn interpolate(
                     &luts[ty2 * t + tx1],
                     &luts[ty2 * t + tx2],
                 ];
-                for (v, q) in table.iter_mut().enumerate() {
-                    *q = u32::from_le_bytes([quad[0][v], quad[1][v], quad[2][v], quad[3][v]]);
-                }
+                pack_luts(table, quad);
             }
             band_rows = Some((ty1, ty2));
         }
@@ -313,10 +340,23 @@ fn interpolate(
     }
 }
 
+/// `table[v]` = the four LUT values at `v` as the bytes of one `u32` (written with shifts so
+/// that it vectorises).
+#[inline(always)]
+fn pack_luts(table: &mut [u32], quad: [&[u8; 256]; 4]) {
+    let Ok(table) = <&mut [u32; 256]>::try_from(table) else {
+        return;
+    };
+    let [a, b, c, d] = quad;
+    for v in 0..256 {
+        table[v] = a[v] as u32 | (b[v] as u32) << 8 | (c[v] as u32) << 16 | (d[v] as u32) << 24;
+    }
+}
+
 /// `dst[i] = round((l11 * xa1 + l12 * xa) * ya1 + (l21 * xa1 + l22 * xa) * ya)` in `f32`, in
 /// OpenCV's order of operations, with `l11..l22` the bytes of `packed[i]`. Indexed over
 /// equal-length slices so that it vectorises.
-#[inline]
+#[inline(always)]
 fn blend_row(dst: &mut [u8], (xa, xa1): (&[f32], &[f32]), (ya, ya1): (f32, f32), packed: &[u32]) {
     let n = dst.len();
     let (xa, xa1, packed) = (&xa[..n], &xa1[..n], &packed[..n]);
@@ -349,13 +389,17 @@ mod tests {
     fn clipping_redistributes_excess() {
         let mut hist = [0u32; 256];
         hist[10] = 300; // limit 4: excess 296 = 1 per bin + 40 residual every 6th bin
-        clip_histogram(&mut hist, 4);
-        assert_eq!(hist.iter().sum::<u32>(), 300);
-        assert_eq!(hist[10], 5);
-        assert_eq!(hist[0], 2);
-        assert_eq!(hist[6], 2);
-        assert_eq!(hist[1], 1);
-        assert_eq!(hist[240], 1);
+        clipped_cdf(&mut hist, 4);
+        let bins: Vec<u32> = (0..256)
+            .map(|i| hist[i] - if i > 0 { hist[i - 1] } else { 0 })
+            .collect();
+        assert_eq!(hist[255], 300);
+        assert_eq!(bins[10], 5);
+        assert_eq!(bins[0], 2);
+        assert_eq!(bins[6], 2);
+        assert_eq!(bins[234], 2);
+        assert_eq!(bins[1], 1);
+        assert_eq!(bins[240], 1);
     }
 
     #[test]
@@ -372,6 +416,47 @@ mod tests {
             "{:?}",
             dst.get_pixel(0, 0)
         );
+        Ok(())
+    }
+
+    #[test]
+    fn dispatched_and_portable_builds_agree() -> Result<()> {
+        // See resize.rs: the AVX2 build of `core` must give the portable build's pixels.
+        let src = GrayImage::from_fn(150, 110, |x, y| image::Luma([((x * 7) ^ (y * 13)) as u8]));
+        for tiles in [1, 3, 8] {
+            let mut a = GrayImage::new(150, 110);
+            clahe(&src, &mut a, 2.5, tiles)?;
+            // The portable build, by hand: same grid as `clahe_with` (150x110 never divides by
+            // 3 or 8, so it pads; with 1 tile it does not).
+            let t = tiles as usize;
+            let (ew, eh) = if 150 % t == 0 && 110 % t == 0 {
+                (150, 110)
+            } else {
+                (150 + t - 150 % t, 110 + t - 110 % t)
+            };
+            let mut scratch = ClaheScratch::default();
+            if (ew, eh) != (150, 110) {
+                pad_reflect101(src.as_raw(), (150, 110), (ew, eh), &mut scratch);
+            }
+            let area = (ew / t) * (eh / t);
+            let grid = Grid {
+                size: (150, 110),
+                stride: ew,
+                tile: (ew / t, eh / t),
+                tiles: t,
+                clip_limit: ((2.5f64 * area as f64 / 256.0) as u32).max(1),
+                lut_scale: 255.0f32 / area as f32,
+            };
+            let ext = std::mem::take(&mut scratch.ext);
+            let hist_src = if (ew, eh) == (150, 110) {
+                src.as_raw().as_slice()
+            } else {
+                &ext
+            };
+            let mut b = GrayImage::new(150, 110);
+            core(src.as_raw(), hist_src, &mut b, &grid, &mut scratch);
+            assert_eq!(a, b, "{tiles} tiles");
+        }
         Ok(())
     }
 

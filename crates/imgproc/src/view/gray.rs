@@ -1,12 +1,12 @@
 //! RGB to grey, bit-identical to OpenCV 5.0's `cvtColor(RGB2GRAY)` / `BGR2GRAY` for 8-bit images.
 //!
-//! Why by hand: neither `image` (`to_luma8` uses BT.709 weights in floating point) nor
-//! `fast_image_resize` converts colour the way OpenCV does, and a difference of one grey level
-//! before CLAHE becomes a large difference after it. OpenCV 5.0 computes
-//! `(9798 R + 19235 G + 3735 B + 2^14) >> 15` (BT.601 weights 0.299, 0.587, 0.114 in 15-bit fixed
-//! point, rounded half up). OpenCV 4.x used 14-bit weights (4899, 9617, 1868); they differ from
-//! 5.0 on 0.3 % of colours. This formula was checked against opencv-python 5.0.0 on all 2^24
-//! colours with no difference.
+//! Why by hand: `image`'s `to_luma8` uses BT.709 weights (0.2126 R + 0.7152 G + 0.0722 B),
+//! `fast_image_resize` has no colour conversion and `kornia-imgproc` 0.2 uses OpenCV 4's 14-bit
+//! weights; a difference of one grey level before CLAHE becomes a large difference after it.
+//! OpenCV 5.0 computes `(9798 R + 19235 G + 3735 B + 2^14) >> 15` (BT.601 weights 0.299, 0.587,
+//! 0.114 in 15-bit fixed point, rounded half up). OpenCV 4.x used 14-bit weights (4899, 9617,
+//! 1868); they differ from 5.0 on 0.3 % of colours. This formula was checked against
+//! opencv-python 5.0.0 on all 2^24 colours with no difference.
 
 use image::{GrayImage, RgbImage};
 
@@ -31,7 +31,7 @@ pub fn gray_of(r: u8, g: u8, b: u8) -> u8 {
 }
 
 /// Converts one interleaved RGB row into grey (`out.len()` pixels).
-#[inline]
+#[inline(always)]
 pub(crate) fn gray_row(rgb: &[u8], out: &mut [u8]) {
     for (o, p) in out.iter_mut().zip(rgb.chunks_exact(3)) {
         *o = gray_of(p[0], p[1], p[2]);
@@ -81,7 +81,7 @@ impl<'a> GrayRows<'a> {
 }
 
 impl RowSource for GrayRows<'_> {
-    #[inline]
+    #[inline(always)]
     fn row(&mut self, y: usize) -> &[u8] {
         if self.last != Some(y) {
             let start = y * self.width * 3;

@@ -21,11 +21,18 @@
 //!   `(x / 255 - mean) / std`.
 //! - OpenCV parity: grey conversion, `INTER_AREA` downscaling, CLAHE and `equalizeHist` are
 //!   bit-identical to opencv-python 5.0 (checked against fixtures made by OpenCV, see
-//!   `tests/data/clahe/README.md`). Canny follows OpenCV's algorithm; bilinear upscaling does not
-//!   promise OpenCV's pixels.
+//!   `tests/data/clahe/README.md`). Canny follows OpenCV's algorithm (every pixel agrees with
+//!   `cv2.Canny` on the fixtures); bilinear upscaling does not promise OpenCV's pixels.
 //! - Decoding is not part of a view. JPEG decoders differ by a few levels on some pixels
 //!   (the `image` crate vs OpenCV's libjpeg-turbo), so views of JPEGs are bit-identical to
-//!   OpenCV's only when both start from the same decoded pixels.
+//!   OpenCV's only when both start from the same decoded pixels. Inputs other than 8-bit grey or
+//!   RGB go through [`image::DynamicImage::to_rgb8`] (alpha dropped as OpenCV's `imread` does;
+//!   16-bit values are scaled by the `image` crate, not shifted by 8 as in OpenCV).
+//! - Speed: the hot loops are written so that the compiler vectorises them, and the area resize
+//!   and CLAHE are also compiled for AVX2 and chosen at run time (the only `unsafe` here is that
+//!   call, after `is_x86_feature_detected!`). Both builds do the same integer and `f32`
+//!   operations in the same order (Rust never fuses multiply-adds), so they give the same pixels;
+//!   tests compare them.
 
 mod canny;
 mod clahe;

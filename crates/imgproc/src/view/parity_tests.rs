@@ -363,15 +363,3 @@ fn view_write_gray160() -> TestResult {
     }
     Ok(())
 }
-
-#[test]
-#[ignore = "profiling loop"]
-fn view_prof_clahe() -> TestResult {
-    let small = gray(&data("clahe/img_00.gray.png"))?;
-    let mut out = GrayImage::new(160, 120);
-    let mut scratch = Scratch::new();
-    for _ in 0..20000 {
-        clahe_with(&small, &mut out, 2.0, 8, &mut scratch.clahe)?;
-    }
-    Ok(())
-}

@@ -3,7 +3,8 @@
 //! Why by hand: the views must match OpenCV's pixels exactly, because CLAHE after the resize
 //! amplifies every difference (one grey level upstream leaves only 63–73 % of CLAHE pixels within
 //! one level). `fast_image_resize`'s box/convolution filters are not OpenCV's area interpolation
-//! for non-integer factors and do not promise OpenCV's rounding, so area resizing here re-derives
+//! for non-integer factors and do not promise OpenCV's rounding, and `kornia-imgproc` 0.2's
+//! OpenCV-compatible resize covers only `INTER_LINEAR`/`INTER_NEAREST`; so area resizing re-derives
 //! `cv::resize(..., INTER_AREA)` for 8-bit images (OpenCV 5.0 `resize.cpp`):
 //!
 //! - integer factors (`src = k * dst` on both axes): the block sum; for 2x2 blocks
@@ -40,7 +41,7 @@ pub(crate) struct SliceRows<'a> {
 }
 
 impl RowSource for SliceRows<'_> {
-    #[inline]
+    #[inline(always)]
     fn row(&mut self, y: usize) -> &[u8] {
         let start = y * self.stride;
         self.data.get(start..start + self.stride).unwrap_or(&[])
@@ -121,7 +122,43 @@ pub(crate) fn is_downscale(sw: u32, sh: u32, dw: u32, dh: u32) -> bool {
 
 /// Area-resizes `sw x sh` (`cn` channels, rows from `src`) into `dst` (`dw x dh`), bit-exact
 /// with OpenCV. Requires `dw <= sw`, `dh <= sh`, all sizes non-zero (checked by the callers).
+///
+/// Runs the code compiled for AVX2 when the CPU has it: the same integer and `f32` operations
+/// (Rust never fuses multiply-adds), so the same pixels, on wider vectors.
 pub(crate) fn area_resize<R: RowSource>(
+    src: &mut R,
+    ssize: (usize, usize),
+    cn: usize,
+    dst: &mut [u8],
+    dsize: (usize, usize),
+    scratch: &mut AreaScratch,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: `area_resize_avx2` requires only AVX2, which the running CPU was just found to
+        // have.
+        unsafe { area_resize_avx2(src, ssize, cn, dst, dsize, scratch) };
+        return;
+    }
+    area_resize_portable(src, ssize, cn, dst, dsize, scratch);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn area_resize_avx2<R: RowSource>(
+    src: &mut R,
+    ssize: (usize, usize),
+    cn: usize,
+    dst: &mut [u8],
+    dsize: (usize, usize),
+    scratch: &mut AreaScratch,
+) {
+    area_resize_portable(src, ssize, cn, dst, dsize, scratch);
+}
+
+/// [`area_resize`] for any CPU (also the body of the AVX2 build).
+#[inline(always)]
+pub(crate) fn area_resize_portable<R: RowSource>(
     src: &mut R,
     (sw, sh): (usize, usize),
     cn: usize,
@@ -178,7 +215,7 @@ pub(crate) fn area_resize<R: RowSource>(
 }
 
 /// `buf[di*cn + c] += row[si*cn + c] * alpha` over the taps, in table order.
-#[inline]
+#[inline(always)]
 fn horizontal_taps(row: &[u8], cn: usize, xtab: &[Tap], buf: &mut [f32]) {
     match cn {
         1 => {
@@ -212,6 +249,7 @@ fn horizontal_taps(row: &[u8], cn: usize, xtab: &[Tap], buf: &mut [f32]) {
 }
 
 /// Integer factors: block sums in `u32`, OpenCV's two rounding rules.
+#[inline(always)]
 fn area_integer<R: RowSource>(
     src: &mut R,
     cn: usize,
@@ -245,7 +283,7 @@ fn area_integer<R: RowSource>(
 
 /// `acc[dx*cn + c] += sum of row[(dx*ix + k)*cn + c], k < ix`, specialised for the common cases
 /// so that the compiler vectorises them.
-#[inline]
+#[inline(always)]
 fn add_block_row(row: &[u8], cn: usize, ix: usize, acc: &mut [u32]) {
     match (cn, ix) {
         (_, 1) => {
@@ -433,6 +471,47 @@ mod tests {
         resize_rgb(&src, &mut dst)?;
         assert!(dst.pixels().all(|p| p.0 == [7, 100, 250]));
         Ok(())
+    }
+
+    #[test]
+    fn dispatched_and_portable_builds_agree() {
+        // On CPUs with AVX2 `area_resize` runs a separately compiled copy; both must give the
+        // same pixels (on other CPUs this compares the portable code with itself).
+        let mut state = 0x2545_f491u32;
+        let raw: Vec<u8> = (0..97 * 61 * 3)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 17;
+                state ^= state << 5;
+                (state >> 24) as u8
+            })
+            .collect();
+        for cn in [1, 3] {
+            for (dw, dh) in [(40, 30), (33, 17), (97, 30), (48, 61), (1, 1)] {
+                let (mut a, mut b) = (vec![0u8; dw * dh * cn], vec![0u8; dw * dh * cn]);
+                let mut rows = SliceRows {
+                    data: &raw[..97 * 61 * cn],
+                    stride: 97 * cn,
+                };
+                area_resize(
+                    &mut rows,
+                    (97, 61),
+                    cn,
+                    &mut a,
+                    (dw, dh),
+                    &mut AreaScratch::default(),
+                );
+                area_resize_portable(
+                    &mut rows,
+                    (97, 61),
+                    cn,
+                    &mut b,
+                    (dw, dh),
+                    &mut AreaScratch::default(),
+                );
+                assert_eq!(a, b, "cn {cn}, {dw}x{dh}");
+            }
+        }
     }
 
     #[test]

@@ -431,6 +431,29 @@ mod tests {
         Ok(())
     }
 
+    /// Checkpoints store the spec in `model.toml`; tools read it as JSON.
+    #[test]
+    fn serde_round_trips_through_toml_and_json()
+    -> std::result::Result<(), Box<dyn std::error::Error>> {
+        for text in [
+            "gray,resize=160x120,clahe=2.0/8",
+            "resize=300x200,random-crop=224x180,norm=imagenet",
+            "resize=64x64,norm=0.5:0.25:0.125/0.2:0.3:0.4",
+            "gray,equalize,gradmag=scharr,norm=pm1",
+            "gray,canny=12.5/40.0",
+        ] {
+            let spec: ViewSpec = text.parse()?;
+            let stored = toml::to_string(&spec)?;
+            assert_eq!(toml::from_str::<ViewSpec>(&stored)?, spec, "{stored}");
+            let json = serde_json::to_string(&spec)?;
+            assert_eq!(serde_json::from_str::<ViewSpec>(&json)?, spec, "{json}");
+        }
+        let json = serde_json::to_value(ViewSpec::preset("gray160")?)?;
+        assert_eq!(json["ops"][2]["op"], "clahe");
+        assert_eq!(json["ops"][2]["tiles"], 8);
+        Ok(())
+    }
+
     #[test]
     fn presets_parse_and_say_what_they_are() -> Result<()> {
         for name in PRESET_NAMES {

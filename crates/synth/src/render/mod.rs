@@ -46,6 +46,14 @@
 //! The map is computed once per camera and cached. A lens without distortion takes the direct
 //! path: output pixels are raster pixels.
 //!
+//! # Speed
+//! One thread, CPU time per frame, measured with `cargo run --release -p synth --example
+//! render_speed` on a shared 2-core AMD EPYC VM (wall time there was about twice the CPU time):
+//! the default building (48.8k triangles, 606 lamps) at 160x120 renders `textured` in about
+//! 1.7 ms (590 frames/s), `shaded` 1.2 ms, `edges` 0.7 ms; at 320x240 `textured` takes about
+//! 5.4 ms. Half of a `textured` frame is shading (about 300 instructions a pixel), a third is
+//! visibility; frames are independent, so throughput scales with threads.
+//!
 //! # Back faces
 //! Triangles are drawn from both sides, except those of closed, consistently oriented meshes with
 //! positive volume (furniture boxes, thick walls), whose back faces can only be seen from inside
@@ -1021,6 +1029,60 @@ mod tests {
                 .sum::<f64>()
         };
         assert!(red(&hazy.rgb) > red(&sharp.rgb) + 1000.0);
+        Ok(())
+    }
+
+    /// Extra triangles (people) are drawn without the grid and hide what is behind them; the
+    /// renderer is `Send` and the scene `Sync`, as rayon over frames needs.
+    #[test]
+    fn render_extra_triangles_occlude() -> R {
+        fn send_sync<S: Send, T: Send + Sync>() {}
+        send_sync::<Renderer, RenderScene>();
+        let world = box_world();
+        let scene = RenderScene::new(&world)?;
+        let camera = Camera::from_hfov(64, 48, 1.0)?;
+        // Looking along +y from y = 0.5 at the far wall (y = 5).
+        let pose = look_at([2.0, 0.5, 1.5], [2.0, 5.0, 1.5])?;
+        let mut r = Renderer::new();
+        let before = r
+            .render(&scene, &camera, &pose, &flat(RenderMode::Shaded), &[])?
+            .clone();
+        let centre = 24 * 64 + 32;
+        assert!(
+            (before.depth[centre] - 4.5).abs() < 1e-3,
+            "{}",
+            before.depth[centre]
+        );
+        // A person-sized quad 2 m ahead, material 0, no plane.
+        let mut person = World::default();
+        quad(
+            &mut person,
+            [
+                [1.7, 2.5, 0.0],
+                [2.3, 2.5, 0.0],
+                [2.3, 2.5, 1.8],
+                [1.7, 2.5, 1.8],
+            ],
+            0,
+            0,
+        );
+        let out = r.render(
+            &scene,
+            &camera,
+            &pose,
+            &flat(RenderMode::Shaded),
+            &person.triangles,
+        )?;
+        assert!(
+            (out.depth[centre] - 2.0).abs() < 1e-3,
+            "{}",
+            out.depth[centre]
+        );
+        assert_eq!(out.plane[centre], 0);
+        assert_ne!(out.rgb, before.rgb);
+        // The next frame without people no longer shows it.
+        let after = r.render(&scene, &camera, &pose, &flat(RenderMode::Shaded), &[])?;
+        assert_eq!(after.depth, before.depth);
         Ok(())
     }
 

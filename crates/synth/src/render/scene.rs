@@ -9,6 +9,7 @@ use super::raster::Stamps;
 use super::texture::{self, Texture};
 use crate::error::{Result, SynthError};
 use crate::world::{Material, Pattern, Triangle, World};
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -584,10 +585,11 @@ impl RenderScene {
                 *g = Some(g.unwrap_or(0.0).max(on));
             }
         }
-        let mut materials: Vec<SceneMaterial> = world
-            .materials
-            .iter()
-            .chain(std::iter::once(&fallback))
+        // Baking is most of the preparation of a world with many materials: in parallel (the
+        // result does not depend on the order or the thread count).
+        let all: Vec<&Material> = world.materials.iter().chain([&fallback]).collect();
+        let mut materials: Vec<SceneMaterial> = all
+            .par_iter()
             .enumerate()
             .map(|(i, m)| {
                 let color = m.color.map(|c| if c.is_finite() { c } else { 0.5 });

@@ -138,17 +138,35 @@ fn circuits(world: &World, lights: &[usize]) -> Vec<Vec<usize>> {
 /// A 1 m cell of space.
 type Cell = (i64, i64, i64);
 
-/// Gives every fixture triangle whose nearest light (of that fixture material, within 1.5 m) is
-/// off a dark, non-emissive copy of its material. One copy per material serves all its
-/// switched-off fixtures.
+/// Makes switched-off fixtures look off. A fixture material whose lights are all off is darkened
+/// in place (the generator gives each fixture its own material); one shared with lights still on
+/// gets a dark, non-emissive copy, given to the triangles whose nearest light of that material
+/// (within 1.5 m) is off. A material already darkened (named "… (off)") is left alone, so
+/// applying a variant twice changes nothing more.
 fn darken_fixtures(world: &mut World) {
-    let affected: BTreeSet<MaterialId> = world
-        .lights
-        .iter()
-        .filter(|l| !l.on)
-        .filter_map(|l| l.fixture)
-        .filter(|&m| usize::from(m) < world.materials.len())
-        .collect();
+    // For each fixture material: is any of its lights on, is any off?
+    let mut state: BTreeMap<MaterialId, (bool, bool)> = BTreeMap::new();
+    for l in &world.lights {
+        if let Some(m) = l.fixture
+            && usize::from(m) < world.materials.len()
+        {
+            let e = state.entry(m).or_insert((false, false));
+            e.0 |= l.on;
+            e.1 |= !l.on;
+        }
+    }
+    let mut affected: BTreeSet<MaterialId> = BTreeSet::new();
+    for (&m, &(any_on, any_off)) in &state {
+        let mat = &mut world.materials[usize::from(m)];
+        if !any_off || mat.name.ends_with(" (off)") {
+            continue;
+        }
+        if any_on {
+            affected.insert(m);
+        } else {
+            switch_off_look(mat);
+        }
+    }
     if affected.is_empty() {
         return;
     }
@@ -168,9 +186,7 @@ fn darken_fixtures(world: &mut World) {
             break;
         }
         let mut off = world.materials[usize::from(m)].clone();
-        off.name = format!("{} (off)", off.name);
-        off.color = off.color.map(|c| c * 0.45);
-        off.emissive = 0.0;
+        switch_off_look(&mut off);
         copies.insert(m, world.add_material(off));
     }
     for t in &mut world.triangles {
@@ -200,6 +216,13 @@ fn darken_fixtures(world: &mut World) {
             t.material = copy;
         }
     }
+}
+
+/// A fixture material as it looks switched off: a grey diffuser, no glow.
+fn switch_off_look(m: &mut crate::world::Material) {
+    m.name = format!("{} (off)", m.name);
+    m.color = m.color.map(|c| c * 0.45);
+    m.emissive = 0.0;
 }
 
 /// Recolours every material and changes its pattern seed (see [`apply`]).

@@ -55,6 +55,37 @@ fn some_lights_off_switches_off_about_half_deterministically() {
 }
 
 #[test]
+fn own_fixture_materials_are_darkened_in_place() {
+    let mut world = test_world::world();
+    // Give every panel its own material, as the procedural generator does.
+    for i in 0..world.lights.len() {
+        let Some(m) = world.lights[i].fixture else {
+            continue;
+        };
+        let own = world.add_material(world.materials[usize::from(m)].clone());
+        let p = world.lights[i].position;
+        for t in &mut world.triangles {
+            let c = (t.v[0].coords + t.v[1].coords + t.v[2].coords) / 3.0;
+            if t.material == m && (c - p.coords).norm() < 0.3 {
+                t.material = own;
+            }
+        }
+        world.lights[i].fixture = Some(own);
+    }
+    let materials = world.materials.len();
+    apply(&mut world, Variant::SomeLightsOff, 6);
+    assert_eq!(world.materials.len(), materials);
+    for l in &world.lights {
+        let m = &world.materials[usize::from(l.fixture.unwrap_or(0))];
+        assert_eq!(m.emissive, if l.on { 1.0 } else { 0.0 });
+    }
+    // Applying again darkens nothing twice.
+    let once = world.clone();
+    darken_fixtures(&mut world);
+    assert_eq!(world, once);
+}
+
+#[test]
 fn dim_daylight_and_disaster_change_light_and_air() {
     let base = test_world::world();
     let mut dim = base.clone();
@@ -70,6 +101,10 @@ fn dim_daylight_and_disaster_change_light_and_air() {
     let mut day = base.clone();
     apply(&mut day, Variant::Daylight, 0);
     assert!(day.lights.iter().all(|l| !l.on));
+    // All panels off: the shared panel material itself goes dark, no copy needed.
+    assert_eq!(day.materials.len(), base.materials.len());
+    let panel = usize::from(base.lights[0].fixture.unwrap_or(0));
+    assert_eq!(day.materials[panel].emissive, 0.0);
     assert_eq!(day.atmosphere.daylight, 1.0);
     assert!(day.atmosphere.ambient > base.atmosphere.ambient);
 

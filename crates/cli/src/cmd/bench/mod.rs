@@ -1,6 +1,8 @@
 //! `indoorloc bench`: speed figures of each stage, beside the reference peer where one is
 //! installed, as a ratio measured in the same run.
 
+mod preprocess;
+
 use crate::cmd::eval::{EvalArgs, evaluate};
 use crate::output::{print_json, print_text};
 use anyhow::{Context, Result, bail};
@@ -21,6 +23,8 @@ pub enum Stage {
     Eval,
     /// The synthetic renderer: frames/s per mode at 160x120 and 320x240, 1 thread and all.
     Render,
+    /// Image views on one thread (160x120 gray + CLAHE, 256x256 [-1, 1]), against OpenCV.
+    Preprocess,
 }
 
 /// Arguments of `indoorloc bench`.
@@ -37,6 +41,10 @@ pub struct BenchArgs {
     /// Timed repetitions; the median is reported.
     #[arg(long, default_value_t = 3)]
     repeat: usize,
+    /// Photo for the preprocess benchmark (default: ../shared/data/aruco_real/img_00.jpg, else a
+    /// 640x480 render of the default building).
+    #[arg(long, value_name = "FILE")]
+    image: Option<PathBuf>,
     /// Folder of the peer scripts (default: ../shared/tools/peers or shared/tools/peers from the
     /// current folder, or $INDOORLOC_PEERS).
     #[arg(long, value_name = "DIR")]
@@ -82,6 +90,8 @@ struct BenchOutput {
     stages: Vec<StageFigures>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     render: Vec<RenderFigures>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    preprocess: Vec<preprocess::ViewFigures>,
 }
 
 /// Runs `indoorloc bench`.
@@ -91,22 +101,26 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     }
     let stages = match args.stage {
         Some(s) => vec![s],
-        None => vec![Stage::Eval, Stage::Render],
+        None => vec![Stage::Eval, Stage::Preprocess, Stage::Render],
     };
     let mut out = BenchOutput {
         stages: Vec::new(),
         render: Vec::new(),
+        preprocess: Vec::new(),
     };
     for stage in stages {
         match stage {
             Stage::Eval => out.stages.push(bench_eval(args)?),
             Stage::Render => out.render = bench_render(args)?,
+            Stage::Preprocess => {
+                out.preprocess = preprocess::bench(args.image.as_deref(), peer_python(args))?
+            }
         }
     }
     if args.json {
         print_json(&out)
     } else {
-        let mut text = String::new();
+        let mut text = preprocess::table(&out.preprocess);
         if !out.render.is_empty() {
             text.push_str(&format!(
                 "{:<10}{:>10}{:>9}{:>10}{:>12}\n",
@@ -297,21 +311,9 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// Runs `metrics.py` on the same files and returns its own `compute_ms` (reading, association
 /// and statistics, without interpreter start-up: the same work `ms` measures).
 fn run_metrics_peer(args: &BenchArgs, gt: &Path, est: &Path) -> Result<f64> {
-    let dir = peers_dir(args).context("peer scripts not found (pass --peers DIR)")?;
-    let venv = std::env::var_os("PEERS_VENV")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".cache/indoorloc-peers")))
-        .context("no PEERS_VENV or HOME")?;
-    let python = venv.join("bin/python");
-    if !python.is_file() {
-        bail!(
-            "peer venv missing at {} (run {}/setup.sh)",
-            venv.display(),
-            dir.display()
-        );
-    }
-    let out = Command::new(&python)
-        .arg(dir.join("metrics.py"))
+    let peer = peer_python(args)?;
+    let out = Command::new(&peer.python)
+        .arg(peer.dir.join("metrics.py"))
         .args([
             "--gt",
             &gt.to_string_lossy(),
@@ -331,6 +333,33 @@ fn run_metrics_peer(args: &BenchArgs, gt: &Path, est: &Path) -> Result<f64> {
     v["compute_ms"]
         .as_f64()
         .context("metrics.py printed no compute_ms")
+}
+
+/// The peer scripts and the Python of their venv.
+pub struct Peer {
+    /// Folder of the peer scripts.
+    pub dir: PathBuf,
+    /// `bin/python` of the peers' venv.
+    pub python: PathBuf,
+}
+
+/// Finds the peer scripts and their venv (`$PEERS_VENV`, default `~/.cache/indoorloc-peers`, as
+/// `setup.sh` makes it); the error says what is missing.
+fn peer_python(args: &BenchArgs) -> Result<Peer> {
+    let dir = peers_dir(args).context("peer scripts not found (pass --peers DIR)")?;
+    let venv = std::env::var_os("PEERS_VENV")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".cache/indoorloc-peers")))
+        .context("no PEERS_VENV or HOME")?;
+    let python = venv.join("bin/python");
+    if !python.is_file() {
+        bail!(
+            "peer venv missing at {} (run {}/setup.sh)",
+            venv.display(),
+            dir.display()
+        );
+    }
+    Ok(Peer { dir, python })
 }
 
 fn peers_dir(args: &BenchArgs) -> Option<PathBuf> {
