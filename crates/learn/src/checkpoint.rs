@@ -1,0 +1,233 @@
+//! Checkpoints: a folder per model.
+//!
+//! ```text
+//! MODEL/
+//!   model.toml                  ModelMeta: network, view, pose coding, dataset, config, metrics
+//!   model.bpk                   weights of the best epoch (what `Localizer` loads)
+//!   state/weights-NNNN.bpk      weights after the last finished epoch NNNN (for resuming)
+//!   state/optimizer-NNNN.bpk    optimizer state after epoch NNNN
+//! ```
+//!
+//! Every file is written atomically (temporary file beside it, then rename). `model.toml` is
+//! written last and names the state files by epoch and the content hash of each weights file, so
+//! a run killed at any moment leaves either the previous checkpoint or the new one, and a file
+//! that does not belong to its `model.toml` (a torn copy, a manual edit) is refused by name
+//! instead of being loaded.
+
+use std::path::{Path, PathBuf};
+
+use burn::module::Module;
+use burn::store::ModuleRecord;
+use burn::tensor::Bytes;
+use serde::{Deserialize, Serialize};
+
+use crate::hash::Fnv64;
+use crate::head::PoseCoding;
+use crate::net::{NetConfig, PoseNet};
+use crate::train::{EpochMetrics, TrainConfig};
+use crate::{LearnError, Result};
+
+/// File name of the checkpoint description.
+pub const MODEL_TOML: &str = "model.toml";
+/// File name of the best weights.
+pub const MODEL_BPK: &str = "model.bpk";
+/// Folder of the resume state.
+pub const STATE_DIR: &str = "state";
+/// Version of the checkpoint layout written by this crate.
+pub const FORMAT: u32 = 1;
+
+/// The dataset a model was trained on.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DatasetRef {
+    /// `name` of its `dataset.toml`.
+    pub name: String,
+    /// Content hash of the metadata and images used (see [`crate::dataset::TrainData::hash`]).
+    pub hash: String,
+    /// Where it was read from.
+    pub path: PathBuf,
+    /// Training frames.
+    pub train_frames: usize,
+    /// Validation frames.
+    pub val_frames: usize,
+}
+
+/// The resume state of the last finished epoch.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StateFiles {
+    /// Weights file, relative to the checkpoint folder.
+    pub weights: String,
+    /// Content hash of the weights file.
+    pub weights_hash: String,
+    /// Optimizer state file, relative to the checkpoint folder.
+    pub optimizer: String,
+    /// Content hash of the optimizer file.
+    pub optimizer_hash: String,
+}
+
+/// The content of `model.toml`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModelMeta {
+    /// Layout version ([`FORMAT`]).
+    pub format: u32,
+    /// Network to rebuild before loading the weights.
+    pub net: NetConfig,
+    /// Meaning of the outputs.
+    pub coding: PoseCoding,
+    /// The input view, as view-spec text (`imgproc::view::ViewSpec`).
+    pub view: String,
+    /// Input shape `[channels, height, width]`.
+    pub input: [usize; 3],
+    /// Dropout probability on the pooled features (training and MC inference).
+    pub dropout: f64,
+    /// The dataset.
+    pub dataset: DatasetRef,
+    /// The training configuration (resuming checks the new one against it).
+    pub config: TrainConfig,
+    /// Epochs finished.
+    pub epoch: usize,
+    /// Epoch whose weights are in `model.bpk` (1-based).
+    pub best_epoch: usize,
+    /// Median validation position error of `model.bpk`, metres.
+    pub val_median_pos_m: f64,
+    /// Median validation rotation error of `model.bpk`, degrees.
+    pub val_median_rot_deg: f64,
+    /// True when early stopping ended training.
+    pub stopped_early: bool,
+    /// Content hash of `model.bpk`.
+    pub weights_hash: String,
+    /// Resume state.
+    pub state: StateFiles,
+    /// Metrics of every finished epoch.
+    pub history: Vec<EpochMetrics>,
+}
+
+impl ModelMeta {
+    /// Reads and checks `dir/model.toml`.
+    pub fn read(dir: &Path) -> Result<ModelMeta> {
+        let path = dir.join(MODEL_TOML);
+        if !path.is_file() {
+            return Err(LearnError::corrupt(
+                &path,
+                "missing: not a checkpoint folder (no model.toml)",
+            ));
+        }
+        let text = data::io::read_text(&path)?;
+        let meta: ModelMeta =
+            toml::from_str(&text).map_err(|e| LearnError::corrupt(&path, e.to_string()))?;
+        meta.check()
+            .map_err(|msg| LearnError::corrupt(&path, msg))?;
+        Ok(meta)
+    }
+
+    /// Consistency of the fields (a damaged or hand-edited file must not reach the network).
+    fn check(&self) -> std::result::Result<(), String> {
+        if self.format != FORMAT {
+            return Err(format!(
+                "layout version {} (this build reads {FORMAT})",
+                self.format
+            ));
+        }
+        self.coding.validate()?;
+        if self.net.outputs != self.coding.task.outputs() {
+            return Err(format!(
+                "{} outputs for task {}",
+                self.net.outputs, self.coding.task
+            ));
+        }
+        let spec = imgproc::view::ViewSpec::resolve(&self.view).map_err(|e| e.to_string())?;
+        if spec.channels() as usize != self.net.channels || self.input[0] != self.net.channels {
+            return Err(format!(
+                "view '{}' gives {} channels, the network takes {}",
+                self.view,
+                spec.channels(),
+                self.net.channels
+            ));
+        }
+        if self.input.contains(&0) {
+            return Err("input shape has a zero".into());
+        }
+        if !(0.0..1.0).contains(&self.dropout) {
+            return Err(format!("dropout {} outside [0, 1)", self.dropout));
+        }
+        Ok(())
+    }
+
+    /// Writes `dir/model.toml` atomically.
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        let path = dir.join(MODEL_TOML);
+        let text = toml::to_string(self).map_err(|e| LearnError::corrupt(&path, e.to_string()))?;
+        data::io::write_text_atomic(&path, &text)?;
+        Ok(())
+    }
+}
+
+/// The burnpack bytes of a module's weights.
+pub fn weights_bytes(net: PoseNet, path: &Path) -> Result<Vec<u8>> {
+    let bytes = net
+        .into_record()
+        .into_bytes()
+        .map_err(|e| LearnError::corrupt(path, format!("cannot serialise weights: {e}")))?;
+    Ok(bytes.to_vec())
+}
+
+/// Writes `bytes` atomically to `dir/name` and returns their hash.
+pub fn write_file(dir: &Path, name: &str, bytes: &[u8]) -> Result<String> {
+    data::io::write_atomic(&dir.join(name), |w| w.write_all(bytes))?;
+    Ok(Fnv64::hex_of(bytes))
+}
+
+/// Reads `dir/name`, checking its hash against the one `model.toml` recorded.
+pub fn read_checked(dir: &Path, name: &str, hash: &str) -> Result<Vec<u8>> {
+    let path = dir.join(name);
+    let bytes = std::fs::read(&path).map_err(|e| LearnError::io(&path, e))?;
+    let actual = Fnv64::hex_of(&bytes);
+    if actual != hash {
+        return Err(LearnError::corrupt(
+            &path,
+            format!(
+                "content hash {actual} differs from {hash} recorded in {MODEL_TOML} \
+                 (damaged, or written by an interrupted run)"
+            ),
+        ));
+    }
+    Ok(bytes)
+}
+
+/// Loads weights into a network built from `config` on `device`.
+pub fn load_weights(
+    config: &NetConfig,
+    bytes: Vec<u8>,
+    device: &burn::tensor::Device,
+    path: &Path,
+) -> Result<PoseNet> {
+    let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(bytes))
+        .map_err(|e| LearnError::corrupt(path, e.to_string()))?;
+    config
+        .init(device, 0)?
+        .try_load_record(record)
+        .map_err(|e| LearnError::corrupt(path, e.to_string()))
+}
+
+/// Name of the state weights of epoch `epoch`.
+pub fn state_weights_name(epoch: usize) -> String {
+    format!("{STATE_DIR}/weights-{epoch:04}.bpk")
+}
+
+/// Name of the optimizer state of epoch `epoch`.
+pub fn state_optimizer_name(epoch: usize) -> String {
+    format!("{STATE_DIR}/optimizer-{epoch:04}.bpk")
+}
+
+/// Removes state files that `keep` does not name (older epochs, leftovers of a killed run).
+/// Failing to remove one is harmless, so errors are ignored.
+pub fn prune_state(dir: &Path, keep: &StateFiles) {
+    let Ok(entries) = std::fs::read_dir(dir.join(STATE_DIR)) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = format!("{STATE_DIR}/{}", entry.file_name().to_string_lossy());
+        if name != keep.weights && name != keep.optimizer {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+}

@@ -1,0 +1,263 @@
+//! Inference: [`Localizer`] loads a checkpoint and turns images into poses, with Monte-Carlo
+//! dropout uncertainty when asked for more than one pass.
+//!
+//! With `N > 1` passes the network runs once per image up to the pooled features, which are
+//! repeated `N` times, masked by `N` Bernoulli masks and sent through the head as one batch. The
+//! mean pose averages positions and sign-aligned quaternions (normalised afterwards);
+//! `sigma_pos_m = sqrt(trace Σ_pos)` with the population covariance of the sample positions, and
+//! `sigma_rot_deg` is the RMS angle between the samples and the mean rotation. Masks come from a
+//! generator seeded per call, so the same image gives the same estimate every time.
+
+use std::path::Path;
+
+use burn::module::Module;
+use burn::tensor::{Device, Tensor, TensorData};
+use geom::{Pose, Pose3};
+use image::DynamicImage;
+use imgproc::view::{View, ViewSpec};
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::checkpoint::{self, MODEL_BPK, ModelMeta};
+use crate::head::{PoseCoding, Task};
+use crate::net::{PoseNet, mc};
+use crate::{LearnError, Result};
+
+/// Images per forward pass when many are predicted at once: bounds memory, keeps batches
+/// large enough for fast convolutions.
+pub const CHUNK: usize = 32;
+
+/// Seed of the dropout masks of MC inference unless [`Localizer::with_seed`] sets another.
+pub const DEFAULT_MC_SEED: u64 = 0x1d00_710c;
+
+/// A pose estimate with its uncertainty.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    /// Camera-to-world pose (for a 3-DoF model, the level camera at the training height).
+    pub pose: Pose,
+    /// The 3-DoF pose, for 3-DoF models.
+    pub pose3: Option<Pose3>,
+    /// `sqrt(trace Σ_pos)` over the MC samples, metres; 0 without MC passes.
+    pub sigma_pos_m: f64,
+    /// RMS angle of the MC samples to the mean rotation, degrees; 0 without MC passes.
+    pub sigma_rot_deg: f64,
+    /// Stochastic passes used (0 = one deterministic pass).
+    pub passes: usize,
+}
+
+/// A loaded model, ready to localise images.
+#[derive(Debug)]
+pub struct Localizer {
+    net: PoseNet,
+    meta: ModelMeta,
+    spec: ViewSpec,
+    device: Device,
+    seed: u64,
+}
+
+impl Localizer {
+    /// Loads the checkpoint folder `dir` (its `model.toml` and `model.bpk`) on the CPU (`flex`)
+    /// backend. A missing, damaged or inconsistent file is an error naming it.
+    pub fn load(dir: &Path) -> Result<Localizer> {
+        Self::load_on(dir, Device::flex())
+    }
+
+    /// [`Localizer::load`] on a chosen device.
+    pub fn load_on(dir: &Path, device: Device) -> Result<Localizer> {
+        let meta = ModelMeta::read(dir)?;
+        let bytes = checkpoint::read_checked(dir, MODEL_BPK, &meta.weights_hash)?;
+        let net = checkpoint::load_weights(&meta.net, bytes, &device, &dir.join(MODEL_BPK))?;
+        let spec = ViewSpec::resolve(&meta.view)
+            .map_err(|e| LearnError::corrupt(dir.join(checkpoint::MODEL_TOML), e.to_string()))?;
+        Ok(Localizer {
+            net: net.valid(),
+            meta,
+            spec,
+            device,
+            seed: DEFAULT_MC_SEED,
+        })
+    }
+
+    /// The same localizer with another seed for the MC dropout masks.
+    pub fn with_seed(mut self, seed: u64) -> Localizer {
+        self.seed = seed;
+        self
+    }
+
+    /// The checkpoint's description (task, view, metrics, ...).
+    pub fn meta(&self) -> &ModelMeta {
+        &self.meta
+    }
+
+    /// The view the network takes.
+    pub fn view_spec(&self) -> &ViewSpec {
+        &self.spec
+    }
+
+    /// The network's view of an image.
+    pub fn view(&self, img: &DynamicImage) -> Result<View> {
+        self.spec
+            .apply(img, 0)
+            .map_err(|e| LearnError::Input(e.to_string()))
+    }
+
+    /// The pose of one image; `mc_passes` > 1 adds MC-dropout uncertainty.
+    pub fn predict(&self, img: &DynamicImage, mc_passes: usize) -> Result<Estimate> {
+        self.predict_view(&self.view(img)?, mc_passes)
+    }
+
+    /// The pose of one view made with [`Localizer::view_spec`].
+    pub fn predict_view(&self, view: &View, mc_passes: usize) -> Result<Estimate> {
+        let mut out = self.predict_batch(std::slice::from_ref(view), mc_passes)?;
+        out.pop()
+            .ok_or_else(|| LearnError::Input("no estimate for the view".into()))
+    }
+
+    /// Poses of many views, run in batches of [`CHUNK`].
+    pub fn predict_batch(&self, views: &[View], mc_passes: usize) -> Result<Vec<Estimate>> {
+        let [c, h, w] = self.meta.input;
+        let mut inputs = Vec::with_capacity(views.len() * c * h * w);
+        for (i, v) in views.iter().enumerate() {
+            if [v.channels as usize, v.height as usize, v.width as usize] != self.meta.input {
+                return Err(LearnError::Input(format!(
+                    "view {i} is {}x{}x{}, the model takes {c}x{h}x{w} (view '{}')",
+                    v.channels, v.height, v.width, self.meta.view
+                )));
+            }
+            inputs.extend_from_slice(&v.data);
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
+        let passes = mc_passes.max(1);
+        let p = if mc_passes > 1 {
+            self.meta.dropout
+        } else {
+            0.0
+        };
+        let rows = run(
+            &self.net,
+            &inputs,
+            self.meta.input,
+            passes,
+            p,
+            &mut rng,
+            &self.device,
+        )?;
+        Ok(estimates(&self.meta.coding, &rows, passes))
+    }
+}
+
+/// Outputs of `net` for packed inputs `[N, C, H, W]`: `N · passes` rows of `outputs` values,
+/// image-major. `p = 0` or `passes = 1` runs the plain network.
+pub fn run(
+    net: &PoseNet,
+    inputs: &[f32],
+    [c, h, w]: [usize; 3],
+    passes: usize,
+    p: f64,
+    rng: &mut ChaCha8Rng,
+    device: &Device,
+) -> Result<Vec<Vec<f32>>> {
+    let per = c * h * w;
+    let n = inputs.len() / per.max(1);
+    let mut rows = Vec::with_capacity(n * passes);
+    for start in (0..n).step_by(CHUNK) {
+        let b = CHUNK.min(n - start);
+        let data = inputs[start * per..(start + b) * per].to_vec();
+        let x = Tensor::<4>::from_data(TensorData::new(data, [b, c, h, w]), device);
+        let out = if passes > 1 && p > 0.0 {
+            mc::mc_outputs(net, x, passes, p, rng)
+        } else {
+            let y = net.forward(x);
+            if passes > 1 {
+                let [_, o] = y.dims();
+                y.unsqueeze_dim::<3>(1)
+                    .repeat_dim(1, passes)
+                    .reshape([b * passes, o])
+            } else {
+                y
+            }
+        };
+        let [_, o] = out.dims();
+        let values = out
+            .into_data()
+            .try_to_vec::<f32>()
+            .map_err(|e| LearnError::Input(format!("cannot read the network's outputs: {e:?}")))?;
+        rows.extend(values.chunks_exact(o).map(<[f32]>::to_vec));
+    }
+    Ok(rows)
+}
+
+/// One [`Estimate`] per `passes` consecutive output rows.
+pub fn estimates(coding: &PoseCoding, rows: &[Vec<f32>], passes: usize) -> Vec<Estimate> {
+    rows.chunks(passes.max(1))
+        .map(|group| {
+            let poses: Vec<Pose> = group.iter().map(|r| coding.decode(r)).collect();
+            let (pose, sigma_pos_m, sigma_rot_deg) = mean_pose(&poses);
+            Estimate {
+                pose,
+                pose3: (coding.task == Task::Pose3).then(|| pose.to_pose3(coding.mount)),
+                sigma_pos_m,
+                sigma_rot_deg,
+                passes: if passes > 1 { passes } else { 0 },
+            }
+        })
+        .collect()
+}
+
+/// Mean pose of samples, `sqrt(trace Σ_pos)` and the RMS rotation angle to the mean (degrees).
+pub fn mean_pose(poses: &[Pose]) -> (Pose, f64, f64) {
+    let Some(first) = poses.first() else {
+        return (Pose::identity(), 0.0, 0.0);
+    };
+    let n = poses.len() as f64;
+    let mean_t = poses
+        .iter()
+        .fold(Vector3::zeros(), |acc, p| acc + p.translation)
+        / n;
+    let q0 = first.rotation.into_inner();
+    let sum = poses
+        .iter()
+        .fold(Quaternion::new(0.0, 0.0, 0.0, 0.0), |acc, p| {
+            let q = p.rotation.into_inner();
+            if q.dot(&q0) < 0.0 { acc - q } else { acc + q }
+        });
+    let mut q = UnitQuaternion::from_quaternion(sum);
+    if q.w < 0.0 {
+        q = UnitQuaternion::from_quaternion(-q.into_inner());
+    }
+    let mean = Pose::new(q, mean_t);
+    let var_pos = poses
+        .iter()
+        .map(|p| (p.translation - mean_t).norm_squared())
+        .sum::<f64>()
+        / n;
+    let var_rot = poses
+        .iter()
+        .map(|p| geom::metrics::rotation_error_deg(&mean, p).powi(2))
+        .sum::<f64>()
+        / n;
+    (mean, var_pos.sqrt(), var_rot.sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mean_pose_of_spread_samples() -> geom::Result<()> {
+        let a = Pose::from_euler_ypr(0.1, 0.0, 0.0, [1.0, 0.0, 0.0])?;
+        let b = Pose::from_euler_ypr(-0.1, 0.0, 0.0, [-1.0, 0.0, 0.0])?;
+        // The same rotation as b, on the other hemisphere: must not cancel in the mean.
+        let mut b2 = b;
+        b2.rotation = UnitQuaternion::new_unchecked(-b.rotation.into_inner());
+        let (mean, sp, sr) = mean_pose(&[a, b2]);
+        assert!(mean.translation.norm() < 1e-12);
+        assert!(geom::metrics::rotation_error_deg(&mean, &Pose::identity()) < 1e-9);
+        assert!((sp - 1.0).abs() < 1e-12);
+        assert!((sr - 0.1f64.to_degrees()).abs() < 1e-9);
+        let (one, sp, sr) = mean_pose(&[a]);
+        assert_eq!((one.translation, sp, sr), (a.translation, 0.0, 0.0));
+        Ok(())
+    }
+}

@@ -1,0 +1,123 @@
+//! The pose losses (PoseNet, Kendall et al. 2015; learned weighting, Kendall & Cipolla 2017).
+//!
+//! `L = mean‖x − x̂‖ + β·mean‖r̂/‖r̂‖ − r‖`, with `r` the quaternion (6-DoF) or `(sin θ, cos θ)`
+//! (3-DoF), and the position error in metres: predictions are de-standardised before the
+//! difference, so β means "metres per unit of rotation error" whatever the building's size.
+//! With learned weighting, `L = Lx·exp(−s_x) + s_x + Lq·exp(−s_q) + s_q` and β is not used.
+
+use burn::tensor::{Tensor, TensorData};
+
+use crate::head::PoseCoding;
+
+/// Added under square roots so that a zero difference has a finite gradient.
+const SQRT_EPS: f32 = 1e-9;
+
+/// The loss of a batch and its two parts (for progress reports).
+#[derive(Debug, Clone)]
+pub struct LossParts {
+    /// The total to minimise, shape `[1]`.
+    pub total: Tensor<1>,
+    /// Mean position error, metres, shape `[1]`.
+    pub pos: Tensor<1>,
+    /// Mean rotation-part distance (normalised prediction to target), shape `[1]`.
+    pub rot: Tensor<1>,
+}
+
+/// How the two loss parts are combined.
+#[derive(Clone, Debug)]
+pub enum Weighting {
+    /// `Lx + β·Lq`.
+    Fixed {
+        /// β.
+        beta: f64,
+    },
+    /// `Lx·exp(−s_x) + s_x + Lq·exp(−s_q) + s_q` with `[s_x, s_q]` trained with the network.
+    Learned(Tensor<1>),
+}
+
+/// Row-wise Euclidean norm `[B, D] -> [B, 1]`.
+fn row_norm(x: Tensor<2>) -> Tensor<2> {
+    x.square().sum_dim(1).add_scalar(SQRT_EPS).sqrt()
+}
+
+/// The loss of network outputs `[B, outputs]` against targets from [`PoseCoding::target`].
+pub fn pose_loss(
+    coding: &PoseCoding,
+    outputs: Tensor<2>,
+    targets: Tensor<2>,
+    weighting: &Weighting,
+) -> LossParts {
+    let device = outputs.device();
+    let d = coding.task.pos_dims();
+    let r = coding.task.rot_dims();
+    let row = |v: &[f64]| {
+        let v: Vec<f32> = v.iter().map(|&x| x as f32).collect();
+        Tensor::<2>::from_data(TensorData::new(v, [1, d]), &device)
+    };
+    let pos_hat = outputs.clone().narrow(1, 0, d) * row(&coding.pos_std) + row(&coding.pos_mean);
+    let pos = targets.clone().narrow(1, 0, d);
+    let lx = row_norm(pos_hat - pos).mean();
+    let rot_hat = outputs.narrow(1, d, r);
+    let rot_hat = rot_hat.clone() / row_norm(rot_hat);
+    let lq = row_norm(rot_hat - targets.narrow(1, d, r)).mean();
+    let total = match weighting {
+        Weighting::Fixed { beta } => lx.clone() + lq.clone().mul_scalar(*beta),
+        Weighting::Learned(s) => {
+            let sx = s.clone().narrow(0, 0, 1);
+            let sq = s.clone().narrow(0, 1, 1);
+            lx.clone() * sx.clone().neg().exp() + sx + lq.clone() * sq.clone().neg().exp() + sq
+        }
+    };
+    LossParts {
+        total,
+        pos: lx,
+        rot: lq,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::head::Task;
+    use burn::tensor::Device;
+    use geom::Mount;
+
+    fn scalar(t: Tensor<1>) -> f32 {
+        t.into_scalar::<f32>()
+    }
+
+    #[test]
+    fn loss_is_the_posenet_formula() {
+        let device = Device::flex();
+        let coding = PoseCoding {
+            task: Task::Pose6,
+            pos_mean: vec![1.0, 0.0, 0.0],
+            pos_std: vec![2.0, 1.0, 1.0],
+            mount: Mount::Forward,
+            z: 0.0,
+        };
+        // Prediction: position (1 + 2·1, 0, 0) = (3, 0, 0); quaternion (2, 0, 0, 0) -> identity.
+        let out = Tensor::<2>::from_data(
+            TensorData::new(vec![1.0f32, 0., 0., 2., 0., 0., 0.], [1, 7]),
+            &device,
+        );
+        // Target: position (0, 4, 0) at distance 5; rotation 180° about z, |(1,0,0,0)-(0,0,0,1)| = √2.
+        let tgt = Tensor::<2>::from_data(
+            TensorData::new(vec![0.0f32, 4., 0., 0., 0., 0., 1.], [1, 7]),
+            &device,
+        );
+        let parts = pose_loss(
+            &coding,
+            out.clone(),
+            tgt.clone(),
+            &Weighting::Fixed { beta: 10.0 },
+        );
+        assert!((scalar(parts.pos) - 5.0).abs() < 1e-5);
+        assert!((scalar(parts.rot) - 2f32.sqrt()).abs() < 1e-5);
+        assert!((scalar(parts.total) - (5.0 + 10.0 * 2f32.sqrt())).abs() < 1e-4);
+        let s = Tensor::<1>::from_floats([0.5, -1.0], &device);
+        let parts = pose_loss(&coding, out, tgt, &Weighting::Learned(s));
+        let expect = 5.0 * (-0.5f32).exp() + 0.5 + 2f32.sqrt() * 1f32.exp() - 1.0;
+        assert!((scalar(parts.total) - expect).abs() < 1e-4);
+    }
+}

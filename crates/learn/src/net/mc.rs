@@ -1,0 +1,70 @@
+//! Explicit dropout masks, for training and for Monte-Carlo dropout at inference.
+//!
+//! Masks come from a seeded ChaCha generator on the CPU, not from the backend's global random
+//! generator, so training and MC inference are reproducible whatever else runs at the same time.
+
+use burn::tensor::{Device, Tensor, TensorData};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+
+use super::PoseNet;
+
+/// An inverted-dropout mask `[rows, cols]`: each entry is 0 with probability `p`, else
+/// `1 / (1 − p)`, so the expected activation is unchanged and no rescaling is needed when
+/// dropout is off. `p` is clamped to `[0, 0.99]`.
+pub fn dropout_mask(rows: usize, cols: usize, p: f64, rng: &mut ChaCha8Rng) -> Vec<f32> {
+    let p = p.clamp(0.0, 0.99);
+    let keep = (1.0 / (1.0 - p)) as f32;
+    (0..rows * cols)
+        .map(|_| if rng.random::<f64>() < p { 0.0 } else { keep })
+        .collect()
+}
+
+/// [`dropout_mask`] as a tensor on `device`.
+pub fn mask_tensor(
+    rows: usize,
+    cols: usize,
+    p: f64,
+    rng: &mut ChaCha8Rng,
+    device: &Device,
+) -> Tensor<2> {
+    let mask = dropout_mask(rows, cols, p, rng);
+    Tensor::from_data(TensorData::new(mask, [rows, cols]), device)
+}
+
+/// `passes` stochastic outputs per image in one batch: `[B, C, H, W] -> [B * passes, outputs]`,
+/// rows `b * passes .. (b + 1) * passes` belonging to image `b`. The backbone runs once per
+/// image; only the pooled features are repeated and masked.
+pub fn mc_outputs(
+    net: &PoseNet,
+    x: Tensor<4>,
+    passes: usize,
+    p: f64,
+    rng: &mut ChaCha8Rng,
+) -> Tensor<2> {
+    let features = net.features(x);
+    let [b, f] = features.dims();
+    let repeated = features
+        .unsqueeze_dim::<3>(1)
+        .repeat_dim(1, passes)
+        .reshape([b * passes, f]);
+    let mask = mask_tensor(b * passes, f, p, rng, &repeated.device());
+    net.head(repeated * mask)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn masks_keep_the_expected_value() {
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let m = dropout_mask(100, 100, 0.25, &mut rng);
+        let zeros = m.iter().filter(|&&v| v == 0.0).count() as f64 / m.len() as f64;
+        assert!((zeros - 0.25).abs() < 0.02, "{zeros}");
+        let mean = m.iter().map(|&v| v as f64).sum::<f64>() / m.len() as f64;
+        assert!((mean - 1.0).abs() < 0.03, "{mean}");
+        assert!(dropout_mask(3, 4, 0.0, &mut rng).iter().all(|&v| v == 1.0));
+    }
+}

@@ -1,0 +1,84 @@
+//! ResNet-18 in torchvision's layout (BasicBlock, `[2, 2, 2, 2]`), as `torch_apr.py --arch
+//! resnet18`: a `7x7/2` stem, `3x3/2` max pool, four stages of two basic blocks, 512 features.
+
+use burn::module::Module;
+use burn::nn::PaddingConfig2d;
+use burn::nn::pool::{MaxPool2d, MaxPool2dConfig};
+use burn::tensor::activation::relu;
+use burn::tensor::{Device, Tensor};
+
+use super::conv::ConvBn;
+
+/// Output channels and stride of the first block of each ResNet-18 stage.
+const STAGES: [(usize, usize); 4] = [(64, 1), (128, 2), (256, 2), (512, 2)];
+
+/// Features after the last stage.
+pub const RESNET_FEATURES: usize = 512;
+
+/// torchvision's BasicBlock: two `3x3` conv + BN, the shortcut added before the last ReLU; a
+/// `1x1` conv + BN shortcut ("downsample") where the shape changes.
+#[derive(Module, Debug)]
+pub struct BasicBlock {
+    conv1: ConvBn,
+    conv2: ConvBn,
+    downsample: Option<ConvBn>,
+}
+
+impl BasicBlock {
+    fn new(cin: usize, cout: usize, stride: usize, device: &Device) -> Self {
+        let downsample =
+            (stride != 1 || cin != cout).then(|| ConvBn::new(cin, cout, 1, stride, 0, device));
+        BasicBlock {
+            conv1: ConvBn::new(cin, cout, 3, stride, 1, device),
+            conv2: ConvBn::new(cout, cout, 3, 1, 1, device),
+            downsample,
+        }
+    }
+
+    fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+        let y = self.conv2.forward(relu(self.conv1.forward(x.clone())));
+        let shortcut = match &self.downsample {
+            Some(d) => d.forward(x),
+            None => x,
+        };
+        relu(y + shortcut)
+    }
+}
+
+/// The ResNet-18 body (pooling and head live in [`super::PoseNet`]).
+#[derive(Module, Debug)]
+pub struct ResNet {
+    stem: ConvBn,
+    pool: MaxPool2d,
+    blocks: Vec<BasicBlock>,
+}
+
+impl ResNet {
+    /// ResNet-18 for `channels` input channels.
+    pub fn resnet18(channels: usize, device: &Device) -> Self {
+        let mut blocks = Vec::with_capacity(8);
+        let mut cin = 64;
+        for (cout, stride) in STAGES {
+            blocks.push(BasicBlock::new(cin, cout, stride, device));
+            blocks.push(BasicBlock::new(cout, cout, 1, device));
+            cin = cout;
+        }
+        ResNet {
+            stem: ConvBn::new(channels, 64, 7, 2, 3, device),
+            pool: MaxPool2dConfig::new([3, 3])
+                .with_strides([2, 2])
+                .with_padding(PaddingConfig2d::Explicit(1, 1, 1, 1))
+                .init(),
+            blocks,
+        }
+    }
+
+    /// `[B, C, H, W] -> [B, 512, H/32, W/32]` (sizes rounded up at each stride).
+    pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+        let mut x = self.pool.forward(relu(self.stem.forward(x)));
+        for block in &self.blocks {
+            x = block.forward(x);
+        }
+        x
+    }
+}

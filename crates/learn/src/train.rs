@@ -1,0 +1,674 @@
+//! Training: [`train`] runs epochs over a native dataset, validates after each one, checkpoints
+//! (see [`crate::checkpoint`]) and stops early when validation stops improving.
+//!
+//! Determinism: weights are initialised from `seed`; the order of the training frames and the
+//! dropout masks of epoch `e` come from a ChaCha generator seeded with `seed` on stream `e`, and
+//! the learning rate is a function of the step number. A resumed run therefore continues exactly
+//! where the checkpointed one would have gone, with no generator state to save.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use burn::module::Module;
+use burn::optim::decay::WeightDecayConfig;
+use burn::optim::{AdamConfig, AdamWConfig, GradientsParams, ModuleOptimizer};
+use burn::tensor::{Bytes, Device, Tensor, TensorData};
+use imgproc::view::ViewSpec;
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::checkpoint::{self, DatasetRef, FORMAT, MODEL_BPK, MODEL_TOML, ModelMeta, StateFiles};
+use crate::dataset::{self, Samples, TrainData};
+use crate::head::{PoseCoding, Task};
+use crate::infer;
+use crate::loss::{Weighting, pose_loss};
+use crate::net::{Arch, NetConfig, PoseNet, mc};
+use crate::{LearnError, Result};
+
+/// The optimizer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum OptimizerKind {
+    /// AdamW (decoupled weight decay).
+    AdamW,
+    /// Adam with AMSGrad (weight decay as an L2 penalty), as in the ceiling-camera literature.
+    Amsgrad,
+}
+
+/// The learning-rate schedule over the whole run.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Schedule {
+    /// The base rate throughout.
+    Constant,
+    /// Cosine decay from the base rate to `final_fraction` of it at the last step.
+    Cosine {
+        /// Final rate as a fraction of the base rate.
+        final_fraction: f64,
+    },
+    /// Multiply by `gamma` every `every_epochs` epochs.
+    Step {
+        /// Epochs between decays.
+        every_epochs: usize,
+        /// Decay factor.
+        gamma: f64,
+    },
+}
+
+impl Schedule {
+    /// The rate at `step` of `total` steps (`steps_per_epoch` of them per epoch).
+    pub fn lr(&self, base: f64, step: usize, total: usize, steps_per_epoch: usize) -> f64 {
+        match *self {
+            Schedule::Constant => base,
+            Schedule::Cosine { final_fraction } => {
+                let t = if total > 1 {
+                    step as f64 / (total - 1) as f64
+                } else {
+                    0.0
+                };
+                let lo = base * final_fraction;
+                lo + 0.5 * (base - lo) * (1.0 + (std::f64::consts::PI * t.min(1.0)).cos())
+            }
+            Schedule::Step {
+                every_epochs,
+                gamma,
+            } => {
+                let epoch = step / steps_per_epoch.max(1);
+                base * gamma.powi((epoch / every_epochs.max(1)) as i32)
+            }
+        }
+    }
+}
+
+/// Everything [`train`] needs. [`TrainConfig::new`] gives the defaults.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrainConfig {
+    /// Native dataset folder.
+    pub data: PathBuf,
+    /// Checkpoint folder (created).
+    pub out: PathBuf,
+    /// Task; `None`: from the dataset's `dof`.
+    pub task: Option<Task>,
+    /// Backbone.
+    pub arch: Arch,
+    /// View preset name or spec text; `None`: `gray160` for 3-DoF, `rgb256` for 6-DoF.
+    pub view: Option<String>,
+    /// Epochs to reach (a resumed run continues up to this number).
+    pub epochs: usize,
+    /// Images per step (at least 2: BatchNorm needs batch statistics).
+    pub batch_size: usize,
+    /// Cap on steps per epoch (`None`: one pass over the training frames).
+    pub max_steps_per_epoch: Option<usize>,
+    /// Base learning rate.
+    pub lr: f64,
+    /// Learning-rate schedule.
+    pub schedule: Schedule,
+    /// Optimizer.
+    pub optimizer: OptimizerKind,
+    /// Weight decay.
+    pub weight_decay: f64,
+    /// β of the PoseNet loss (metres per unit of quaternion distance).
+    pub beta: f64,
+    /// Learn the weighting of the two loss parts instead of using β.
+    pub learned_weighting: bool,
+    /// Dropout probability on the pooled features (also used by MC inference).
+    pub dropout: f64,
+    /// Stop after this many epochs without a better validation median position error.
+    pub patience: Option<usize>,
+    /// Seed of initialisation, shuffling and dropout.
+    pub seed: u64,
+    /// Continue from the checkpoint in `out` when there is one.
+    pub resume: bool,
+}
+
+impl TrainConfig {
+    /// Defaults: small network, 30 epochs, batch 32, AdamW at 1e-3 with weight decay 1e-4 and a
+    /// cosine schedule, β = 10 (indoors a 0.1 m error and a 5° error weigh about the same),
+    /// dropout 0.2, patience 10, seed 0.
+    pub fn new(data: impl Into<PathBuf>, out: impl Into<PathBuf>) -> TrainConfig {
+        TrainConfig {
+            data: data.into(),
+            out: out.into(),
+            task: None,
+            arch: Arch::Small,
+            view: None,
+            epochs: 30,
+            batch_size: 32,
+            max_steps_per_epoch: None,
+            lr: 1e-3,
+            schedule: Schedule::Cosine {
+                final_fraction: 0.01,
+            },
+            optimizer: OptimizerKind::AdamW,
+            weight_decay: 1e-4,
+            beta: 10.0,
+            learned_weighting: false,
+            dropout: 0.2,
+            patience: Some(10),
+            seed: 0,
+            resume: false,
+        }
+    }
+
+    fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(LearnError::Config(m));
+        if self.epochs == 0 {
+            return bad("epochs must be at least 1".into());
+        }
+        if self.batch_size < 2 {
+            return bad(format!(
+                "batch size {} too small: BatchNorm needs at least 2 images per batch",
+                self.batch_size
+            ));
+        }
+        if self.max_steps_per_epoch == Some(0) {
+            return bad("max steps per epoch must be at least 1".into());
+        }
+        if !(self.lr.is_finite() && self.lr > 0.0) {
+            return bad(format!("learning rate {} must be positive", self.lr));
+        }
+        if !(self.weight_decay.is_finite() && self.weight_decay >= 0.0) {
+            return bad(format!("weight decay {} must be >= 0", self.weight_decay));
+        }
+        if !(self.beta.is_finite() && self.beta >= 0.0) {
+            return bad(format!("beta {} must be >= 0", self.beta));
+        }
+        if !(0.0..1.0).contains(&self.dropout) {
+            return bad(format!("dropout {} must be in [0, 1)", self.dropout));
+        }
+        match self.schedule {
+            Schedule::Cosine { final_fraction } if !(0.0..=1.0).contains(&final_fraction) => bad(
+                format!("cosine final fraction {final_fraction} must be in [0, 1]"),
+            ),
+            Schedule::Step {
+                every_epochs,
+                gamma,
+            } if every_epochs == 0 || !(gamma.is_finite() && gamma > 0.0) => {
+                bad("step schedule needs every_epochs >= 1 and gamma > 0".into())
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The fields a resumed run must share with the checkpoint: all but the paths, `epochs`,
+    /// `patience` and `resume`, which may change between runs, and the task and view, which are
+    /// compared as resolved (an unset task means the dataset's, an unset view the default).
+    fn resume_key(&self) -> TrainConfig {
+        TrainConfig {
+            data: PathBuf::new(),
+            out: PathBuf::new(),
+            task: None,
+            view: None,
+            epochs: 0,
+            patience: None,
+            resume: false,
+            ..self.clone()
+        }
+    }
+}
+
+/// Metrics of one finished epoch.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EpochMetrics {
+    /// Epoch number, from 1.
+    pub epoch: usize,
+    /// Mean training loss.
+    pub train_loss: f64,
+    /// Mean training position error (metres, with dropout).
+    pub train_pos_m: f64,
+    /// Learning rate at the epoch's last step.
+    pub lr: f64,
+    /// Median validation position error, metres.
+    pub val_median_pos_m: f64,
+    /// Median validation rotation error, degrees.
+    pub val_median_rot_deg: f64,
+    /// Mean validation position error, metres.
+    pub val_mean_pos_m: f64,
+    /// Wall time of the epoch (training and validation), seconds.
+    pub seconds: f64,
+}
+
+/// Progress of [`train`], for progress bars and logs.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TrainEvent {
+    /// The dataset is in memory.
+    Loaded {
+        /// Training frames.
+        train: usize,
+        /// Validation frames.
+        val: usize,
+        /// Input shape `[C, H, W]`.
+        input: [usize; 3],
+        /// Seconds spent reading and viewing images.
+        seconds: f64,
+    },
+    /// Training continues from a checkpoint.
+    Resumed {
+        /// Epochs already finished.
+        epoch: usize,
+    },
+    /// One optimisation step finished.
+    Step {
+        /// Epoch (from 1).
+        epoch: usize,
+        /// Step within the epoch (from 1).
+        step: usize,
+        /// Steps in the epoch.
+        steps: usize,
+        /// Loss of the batch.
+        loss: f64,
+    },
+    /// An epoch finished and was checkpointed.
+    Epoch(EpochMetrics),
+    /// Validation did not improve for `patience` epochs.
+    EarlyStop {
+        /// Last epoch run.
+        epoch: usize,
+        /// Epoch of the kept weights.
+        best_epoch: usize,
+    },
+}
+
+/// The outcome of [`train`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrainSummary {
+    /// Checkpoint folder.
+    pub out: PathBuf,
+    /// Epochs finished (over all resumed runs).
+    pub epochs: usize,
+    /// Epoch of the weights in `model.bpk`.
+    pub best_epoch: usize,
+    /// Median validation position error of `model.bpk`, metres.
+    pub val_median_pos_m: f64,
+    /// Median validation rotation error of `model.bpk`, degrees.
+    pub val_median_rot_deg: f64,
+    /// True when early stopping ended the run.
+    pub stopped_early: bool,
+    /// Training frames.
+    pub train_frames: usize,
+    /// Validation frames.
+    pub val_frames: usize,
+    /// Per-epoch metrics (over all resumed runs).
+    pub history: Vec<EpochMetrics>,
+}
+
+impl TrainSummary {
+    fn of(meta: &ModelMeta, out: &Path) -> TrainSummary {
+        TrainSummary {
+            out: out.to_path_buf(),
+            epochs: meta.epoch,
+            best_epoch: meta.best_epoch,
+            val_median_pos_m: meta.val_median_pos_m,
+            val_median_rot_deg: meta.val_median_rot_deg,
+            stopped_early: meta.stopped_early,
+            train_frames: meta.dataset.train_frames,
+            val_frames: meta.dataset.val_frames,
+            history: meta.history.clone(),
+        }
+    }
+}
+
+/// The optimizer a config asks for. Epsilon is PyTorch's 1e-8 (burn's default is 1e-5), so
+/// that runs compare with the PyTorch peer.
+fn optimizer(cfg: &TrainConfig) -> ModuleOptimizer {
+    match cfg.optimizer {
+        OptimizerKind::AdamW => AdamWConfig::new()
+            .with_epsilon(1e-8)
+            .with_weight_decay(cfg.weight_decay as f32)
+            .init(),
+        OptimizerKind::Amsgrad => AdamConfig::new()
+            .with_epsilon(1e-8)
+            .with_amsgrad(true)
+            .with_weight_decay(
+                (cfg.weight_decay > 0.0).then(|| WeightDecayConfig::new(cfg.weight_decay as f32)),
+            )
+            .init(),
+    }
+}
+
+/// Median and mean errors of a network on samples: `(median pos m, median rot deg, mean pos m)`.
+pub fn evaluate(
+    net: &PoseNet,
+    coding: &PoseCoding,
+    samples: &Samples,
+    device: &Device,
+) -> Result<(f64, f64, f64)> {
+    let mut rng = ChaCha8Rng::seed_from_u64(0);
+    let input = [samples.channels, samples.height, samples.width];
+    let rows = infer::run(net, &samples.inputs, input, 1, 0.0, &mut rng, device)?;
+    let est = infer::estimates(coding, &rows, 1);
+    let pos: Vec<f64> = est
+        .iter()
+        .zip(&samples.poses)
+        .map(|(e, gt)| geom::metrics::position_error(gt, &e.pose))
+        .collect();
+    let rot: Vec<f64> = est
+        .iter()
+        .zip(&samples.poses)
+        .map(|(e, gt)| geom::metrics::rotation_error_deg(gt, &e.pose))
+        .collect();
+    let stats = |v: &[f64]| {
+        geom::metrics::Stats::of(v)
+            .map_err(|e| LearnError::Diverged(format!("validation errors are not finite ({e})")))
+    };
+    let (p, r) = (stats(&pos)?, stats(&rot)?);
+    Ok((p.median, r.median, p.mean))
+}
+
+/// A batch as tensors: inputs `[B, C, H, W]` and targets `[B, outputs]`.
+fn batch(
+    samples: &Samples,
+    targets: &[Vec<f32>],
+    idx: &[usize],
+    device: &Device,
+) -> (Tensor<4>, Tensor<2>) {
+    let mut x = Vec::with_capacity(idx.len() * samples.view_len());
+    let mut y = Vec::with_capacity(idx.len() * targets[0].len());
+    for &i in idx {
+        x.extend_from_slice(samples.input(i));
+        y.extend_from_slice(&targets[i]);
+    }
+    let shape = [idx.len(), samples.channels, samples.height, samples.width];
+    (
+        Tensor::from_data(TensorData::new(x, shape), device),
+        Tensor::from_data(TensorData::new(y, [idx.len(), targets[0].len()]), device),
+    )
+}
+
+/// What a fresh run or a checkpoint starts from.
+struct Start {
+    meta: ModelMeta,
+    net: PoseNet,
+    optim: ModuleOptimizer,
+    /// Epochs since the best one (for early stopping), from the history.
+    stale: usize,
+}
+
+/// A new run: fresh network, empty history.
+fn fresh(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device) -> Result<Start> {
+    let task = cfg.task.unwrap_or(Task::for_dof(data.info.dof));
+    let coding = PoseCoding::fit(task, data.info.mount, &data.train.poses)?;
+    let net_cfg = NetConfig {
+        arch: cfg.arch,
+        channels: data.train.channels,
+        outputs: task.outputs(),
+        learned_weighting: cfg.learned_weighting,
+    };
+    let net = net_cfg.init(device, cfg.seed)?;
+    let meta = ModelMeta {
+        format: FORMAT,
+        net: net_cfg,
+        coding,
+        view: spec.to_string(),
+        input: [data.train.channels, data.train.height, data.train.width],
+        dropout: cfg.dropout,
+        dataset: DatasetRef {
+            name: data.info.name.clone(),
+            hash: data.hash.clone(),
+            path: cfg.data.clone(),
+            train_frames: data.train.len(),
+            val_frames: data.val.len(),
+        },
+        config: cfg.clone(),
+        epoch: 0,
+        best_epoch: 0,
+        val_median_pos_m: f64::INFINITY,
+        val_median_rot_deg: f64::INFINITY,
+        stopped_early: false,
+        weights_hash: String::new(),
+        state: StateFiles {
+            weights: String::new(),
+            weights_hash: String::new(),
+            optimizer: String::new(),
+            optimizer_hash: String::new(),
+        },
+        history: Vec::new(),
+    };
+    Ok(Start {
+        meta,
+        net,
+        optim: optimizer(cfg),
+        stale: 0,
+    })
+}
+
+/// Continues from the checkpoint in `cfg.out`, after checking that it was made with the same
+/// data, view and settings.
+fn resume(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device) -> Result<Start> {
+    let dir = &cfg.out;
+    let toml = dir.join(MODEL_TOML);
+    let meta = ModelMeta::read(dir)?;
+    let mismatch = |msg: String| {
+        Err(LearnError::Mismatch {
+            path: toml.clone(),
+            msg,
+        })
+    };
+    if meta.dataset.hash != data.hash {
+        return mismatch(format!(
+            "trained on dataset '{}' ({}), not on the content of {} ({})",
+            meta.dataset.name,
+            meta.dataset.hash,
+            cfg.data.display(),
+            data.hash
+        ));
+    }
+    if meta.view != spec.to_string() {
+        return mismatch(format!("view '{}', not '{spec}'", meta.view));
+    }
+    let (old, new) = (meta.config.resume_key(), cfg.resume_key());
+    let task_differs = cfg.task.is_some() && cfg.task != Some(meta.coding.task);
+    if task_differs || old != new {
+        return mismatch(format!(
+            "trained with different settings; checkpoint: {}; now: {}",
+            settings_text(&old, meta.coding.task),
+            settings_text(&new, cfg.task.unwrap_or(meta.coding.task))
+        ));
+    }
+    let weights = checkpoint::read_checked(dir, &meta.state.weights, &meta.state.weights_hash)?;
+    let net = checkpoint::load_weights(&meta.net, weights, device, &dir.join(&meta.state.weights))?;
+    let opt_path = dir.join(&meta.state.optimizer);
+    let opt_bytes =
+        checkpoint::read_checked(dir, &meta.state.optimizer, &meta.state.optimizer_hash)?;
+    let optim = optimizer(cfg)
+        .from_bytes(Bytes::from_bytes_vec(opt_bytes))
+        .map_err(|e| LearnError::corrupt(&opt_path, e.to_string()))?;
+    let stale = meta.epoch.saturating_sub(meta.best_epoch);
+    let mut meta = meta;
+    meta.config.epochs = cfg.epochs;
+    meta.config.patience = cfg.patience;
+    meta.config.data = cfg.data.clone();
+    Ok(Start {
+        meta,
+        net,
+        optim,
+        stale,
+    })
+}
+
+/// The settings a resume compares, in one line for the error message.
+fn settings_text(c: &TrainConfig, task: Task) -> String {
+    format!(
+        "task {task}, arch {}, batch {}, lr {}, {:?}, {:?}, weight decay {}, beta {}, learned weighting {}, dropout {}, seed {}, max steps {:?}",
+        c.arch,
+        c.batch_size,
+        c.lr,
+        c.schedule,
+        c.optimizer,
+        c.weight_decay,
+        c.beta,
+        c.learned_weighting,
+        c.dropout,
+        c.seed,
+        c.max_steps_per_epoch
+    )
+}
+
+/// Trains a pose network on the native dataset `cfg.data` and checkpoints it into `cfg.out`
+/// after every epoch. With `cfg.resume` and a checkpoint in `cfg.out`, training continues from
+/// its last epoch (an error when the checkpoint was made from other data or settings); without,
+/// any checkpoint there is replaced. `progress` sees every step and epoch.
+pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result<TrainSummary> {
+    cfg.validate()?;
+    let t0 = Instant::now();
+    let default_view = match cfg.task {
+        Some(Task::Pose3) => "gray160",
+        Some(Task::Pose6) => "rgb256",
+        None => {
+            let info = data::native::DatasetInfo::read(&cfg.data.join(data::native::DATASET_TOML))?;
+            if Task::for_dof(info.dof) == Task::Pose3 {
+                "gray160"
+            } else {
+                "rgb256"
+            }
+        }
+    };
+    let spec = ViewSpec::resolve(cfg.view.as_deref().unwrap_or(default_view))
+        .map_err(|e| LearnError::Config(e.to_string()))?;
+    let data = dataset::load(&cfg.data, &spec, cfg.seed)?;
+    progress(&TrainEvent::Loaded {
+        train: data.train.len(),
+        val: data.val.len(),
+        input: [data.train.channels, data.train.height, data.train.width],
+        seconds: t0.elapsed().as_secs_f64(),
+    });
+    if data.train.len() < 2 {
+        return Err(LearnError::Input(format!(
+            "{}: {} training frame(s); BatchNorm needs at least 2",
+            cfg.data.display(),
+            data.train.len()
+        )));
+    }
+    let device = Device::flex().autodiff();
+    let resuming = cfg.resume && cfg.out.join(MODEL_TOML).is_file();
+    let Start {
+        mut meta,
+        mut net,
+        mut optim,
+        mut stale,
+    } = if resuming {
+        let start = resume(cfg, &data, &spec, &device)?;
+        progress(&TrainEvent::Resumed {
+            epoch: start.meta.epoch,
+        });
+        start
+    } else {
+        fresh(cfg, &data, &spec, &device)?
+    };
+    if meta.stopped_early {
+        return Ok(TrainSummary::of(&meta, &cfg.out));
+    }
+    let coding = meta.coding.clone();
+    let targets: Vec<Vec<f32>> = data.train.poses.iter().map(|p| coding.target(p)).collect();
+    let features = meta.net.arch.features();
+    let batch_size = cfg.batch_size.min(data.train.len());
+    let mut steps = data.train.len() / batch_size;
+    if let Some(cap) = cfg.max_steps_per_epoch {
+        steps = steps.min(cap);
+    }
+    let total_steps = steps * cfg.epochs;
+    let plain = Device::flex();
+    while meta.epoch < cfg.epochs {
+        let epoch = meta.epoch + 1;
+        let t_epoch = Instant::now();
+        let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+        rng.set_stream(epoch as u64);
+        let mut order: Vec<usize> = (0..data.train.len()).collect();
+        order.shuffle(&mut rng);
+        let (mut loss_sum, mut pos_sum, mut lr) = (0.0, 0.0, cfg.lr);
+        for step in 0..steps {
+            let idx = &order[step * batch_size..(step + 1) * batch_size];
+            let (x, y) = batch(&data.train, &targets, idx, &device);
+            let mask = mc::mask_tensor(idx.len(), features, cfg.dropout, &mut rng, &device);
+            let out = net.forward_masked(x, mask);
+            let weighting = match net.log_vars() {
+                Some(s) => Weighting::Learned(s),
+                None => Weighting::Fixed { beta: cfg.beta },
+            };
+            let parts = pose_loss(&coding, out, y, &weighting);
+            let grads = GradientsParams::from_grads(parts.total.backward(), &net);
+            let loss: f64 = parts.total.into_scalar::<f32>() as f64;
+            if !loss.is_finite() {
+                return Err(LearnError::Diverged(format!(
+                    "loss {loss} at epoch {epoch}, step {}; try a lower learning rate",
+                    step + 1
+                )));
+            }
+            let global = (epoch - 1) * steps + step;
+            lr = cfg.schedule.lr(cfg.lr, global, total_steps, steps);
+            net = optim.step(lr, net, grads);
+            loss_sum += loss;
+            pos_sum += parts.pos.into_scalar::<f32>() as f64;
+            progress(&TrainEvent::Step {
+                epoch,
+                step: step + 1,
+                steps,
+                loss,
+            });
+        }
+        let valid = net.valid();
+        let (med_pos, med_rot, mean_pos) = evaluate(&valid, &coding, &data.val, &plain)?;
+        let metrics = EpochMetrics {
+            epoch,
+            train_loss: loss_sum / steps as f64,
+            train_pos_m: pos_sum / steps as f64,
+            lr,
+            val_median_pos_m: med_pos,
+            val_median_rot_deg: med_rot,
+            val_mean_pos_m: mean_pos,
+            seconds: t_epoch.elapsed().as_secs_f64(),
+        };
+        let improved = med_pos < meta.val_median_pos_m || meta.best_epoch == 0;
+        stale = if improved { 0 } else { stale + 1 };
+        meta.epoch = epoch;
+        meta.history.push(metrics.clone());
+        if improved {
+            meta.best_epoch = epoch;
+            meta.val_median_pos_m = med_pos;
+            meta.val_median_rot_deg = med_rot;
+        }
+        meta.stopped_early = cfg.patience.is_some_and(|p| stale >= p) && epoch < cfg.epochs;
+        save_epoch(&cfg.out, &mut meta, &net, &optim, improved.then_some(valid))?;
+        progress(&TrainEvent::Epoch(metrics));
+        if meta.stopped_early {
+            progress(&TrainEvent::EarlyStop {
+                epoch,
+                best_epoch: meta.best_epoch,
+            });
+            break;
+        }
+    }
+    Ok(TrainSummary::of(&meta, &cfg.out))
+}
+
+/// Writes the checkpoint of a finished epoch: state files, `model.bpk` when `best` is given,
+/// then `model.toml`, then removes the previous state files.
+fn save_epoch(
+    dir: &Path,
+    meta: &mut ModelMeta,
+    net: &PoseNet,
+    optim: &ModuleOptimizer,
+    best: Option<PoseNet>,
+) -> Result<()> {
+    let weights_name = checkpoint::state_weights_name(meta.epoch);
+    let optimizer_name = checkpoint::state_optimizer_name(meta.epoch);
+    let weights = checkpoint::weights_bytes(net.clone(), &dir.join(&weights_name))?;
+    let opt = optim
+        .into_bytes()
+        .map_err(|e| LearnError::corrupt(dir.join(&optimizer_name), e.to_string()))?;
+    meta.state = StateFiles {
+        weights_hash: checkpoint::write_file(dir, &weights_name, &weights)?,
+        weights: weights_name,
+        optimizer_hash: checkpoint::write_file(dir, &optimizer_name, &opt)?,
+        optimizer: optimizer_name,
+    };
+    if let Some(best) = best {
+        let bytes = checkpoint::weights_bytes(best, &dir.join(MODEL_BPK))?;
+        meta.weights_hash = checkpoint::write_file(dir, MODEL_BPK, &bytes)?;
+    }
+    meta.write(dir)?;
+    checkpoint::prune_state(dir, &meta.state);
+    Ok(())
+}

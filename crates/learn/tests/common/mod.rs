@@ -1,0 +1,90 @@
+//! A tiny procedural native dataset for the tests: each image's mean colour encodes the pose
+//! (red: x, green: y, blue: heading) under a fixed texture, so a small network learns it in a
+//! few steps.
+
+use std::path::Path;
+
+use data::native::{CameraInfo, DatasetInfo, Splits, write_metadata};
+use data::{PoseFrame, Trajectory};
+use geom::{Mount, Pose, Pose3};
+use image::{Rgb, RgbImage};
+
+/// Image size of the test frames.
+pub const W: u32 = 32;
+/// Image size of the test frames.
+pub const H: u32 = 24;
+
+/// 3-DoF pose of frame `i` of sequence `s`: sequences interleave along one walk, so the
+/// validation sequence lies between training poses.
+fn pose3(s: usize, i: usize, n_seq: usize) -> (f64, f64, f64) {
+    let t = (i * n_seq + s) as f64 / 10.0;
+    (t, 0.8 * (t * 1.3).sin(), 0.4 * t - 1.0)
+}
+
+fn image(x: f64, y: f64, heading: f64) -> RgbImage {
+    let r = (30.0 + 40.0 * x).clamp(0.0, 255.0);
+    let g = (128.0 + 100.0 * y).clamp(0.0, 255.0);
+    let b = (128.0 + 100.0 * heading.sin()).clamp(0.0, 255.0);
+    RgbImage::from_fn(W, H, |u, v| {
+        let tex = (((u * 7 + v * 13) % 11) as f64 - 5.0) * 2.0;
+        let c = |m: f64| (m + tex).clamp(0.0, 255.0) as u8;
+        Rgb([c(r), c(g), c(b)])
+    })
+}
+
+/// Writes a dataset of `per_seq` frames in each of three sequences (`s0`, `s1` train, `s2`
+/// val) into `root`; `dof` 6 (forward camera) or 3 (ceiling camera).
+pub fn make_dataset(root: &Path, dof: u8, per_seq: usize) {
+    let mount = if dof == 3 {
+        Mount::Ceiling
+    } else {
+        Mount::Forward
+    };
+    let mut frames = Vec::new();
+    let n_seq = 3;
+    std::fs::create_dir_all(root.join("frames")).unwrap();
+    let mut number = 0u64;
+    for s in 0..n_seq {
+        for i in 0..per_seq {
+            let (x, y, h) = pose3(s, i, n_seq);
+            let pose: Pose = if dof == 3 {
+                Pose3::new(x, y, h).unwrap().to_pose(mount, 2.5)
+            } else {
+                Pose::from_euler_ypr(h, 0.1 * y, 0.0, [x, y, 1.5]).unwrap()
+            };
+            image(x, y, h)
+                .save(root.join("frames").join(format!("{number:06}.png")))
+                .unwrap();
+            frames.push(PoseFrame {
+                name: format!("{number:06}"),
+                seq: format!("s{s}"),
+                t: Some(i as f64 / 10.0),
+                pose,
+            });
+            number += 1;
+        }
+    }
+    let info = DatasetInfo {
+        name: format!("tiny{dof}"),
+        dof,
+        units: "m".into(),
+        frame_rate: 10.0,
+        mount,
+        camera: CameraInfo {
+            width: W,
+            height: H,
+            fx: 20.0,
+            fy: 20.0,
+            cx: W as f64 / 2.0,
+            cy: H as f64 / 2.0,
+            distortion: [0.0; 5],
+        },
+        generator: None,
+    };
+    let splits = Splits {
+        train: vec!["s0".into(), "s1".into()],
+        val: vec!["s2".into()],
+        test: vec![],
+    };
+    write_metadata(root, &info, &Trajectory::new(frames), None, None, &splits).unwrap();
+}

@@ -1,0 +1,287 @@
+//! Training, checkpoints and inference end to end on a tiny procedural dataset.
+
+mod common;
+
+use std::path::Path;
+
+use geom::metrics::{Stats, position_error, rotation_error_deg};
+use learn::{
+    Arch, LearnError, Localizer, Schedule, Task, TrainConfig, TrainEvent, TrainSummary, train,
+};
+
+/// A config that trains the small net on the tiny dataset in a few seconds.
+fn tiny_config(data: &Path, out: &Path, epochs: usize) -> TrainConfig {
+    let mut cfg = TrainConfig::new(data, out);
+    cfg.arch = Arch::Small;
+    cfg.view = Some("resize=32x24".into());
+    cfg.epochs = epochs;
+    cfg.batch_size = 8;
+    cfg.lr = 3e-3;
+    cfg.schedule = Schedule::Constant;
+    cfg.beta = 1.0;
+    cfg.seed = 7;
+    cfg
+}
+
+fn run(cfg: &TrainConfig) -> (TrainSummary, Vec<TrainEvent>) {
+    let mut events = Vec::new();
+    let summary = train(cfg, &mut |e| events.push(e.clone())).unwrap();
+    (summary, events)
+}
+
+fn step_losses(events: &[TrainEvent]) -> Vec<f64> {
+    events
+        .iter()
+        .filter_map(|e| match e {
+            TrainEvent::Step { loss, .. } => Some(*loss),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Median position / rotation errors of a loaded model on the validation frames, read from disk.
+fn val_errors(loc: &Localizer, data: &Path) -> (f64, f64) {
+    let ds = data::native::NativeDataset::open(data).unwrap();
+    let (mut pos, mut rot) = (Vec::new(), Vec::new());
+    for i in ds.split_frames(data::native::SplitName::Val) {
+        let frame = &ds.trajectory.frames[i];
+        let img = image::open(ds.frame_path(frame.name.parse().unwrap())).unwrap();
+        let est = loc.predict(&img, 0).unwrap();
+        pos.push(position_error(&frame.pose, &est.pose));
+        rot.push(rotation_error_deg(&frame.pose, &est.pose));
+    }
+    (
+        Stats::of(&pos).unwrap().median,
+        Stats::of(&rot).unwrap().median,
+    )
+}
+
+#[test]
+fn loss_falls_and_inference_reproduces_the_stored_validation_error() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (data, out) = (tmp.path().join("data"), tmp.path().join("model"));
+    common::make_dataset(&data, 6, 24);
+    let (summary, events) = run(&tiny_config(&data, &out, 4));
+    assert!(matches!(
+        events[0],
+        TrainEvent::Loaded {
+            train: 48,
+            val: 24,
+            input: [3, 24, 32],
+            ..
+        }
+    ));
+    let losses = step_losses(&events);
+    assert_eq!(losses.len(), 4 * 6);
+    let head: f64 = losses[..4].iter().sum::<f64>() / 4.0;
+    let tail: f64 = losses[losses.len() - 4..].iter().sum::<f64>() / 4.0;
+    assert!(tail < 0.7 * head, "loss did not fall: {head} -> {tail}");
+    assert_eq!(summary.epochs, 4);
+    assert_eq!(summary.history.len(), 4);
+    for f in [
+        "model.toml",
+        "model.bpk",
+        "state/weights-0004.bpk",
+        "state/optimizer-0004.bpk",
+    ] {
+        assert!(out.join(f).is_file(), "{f}");
+    }
+    assert!(
+        !out.join("state/weights-0003.bpk").exists(),
+        "old state is pruned"
+    );
+
+    let loc = Localizer::load(&out).unwrap();
+    assert_eq!(loc.meta().coding.task, Task::Pose6);
+    assert_eq!(loc.meta().best_epoch, summary.best_epoch);
+    let (pos, rot) = val_errors(&loc, &data);
+    assert!(
+        (pos - summary.val_median_pos_m).abs() < 1e-4,
+        "{pos} vs {}",
+        summary.val_median_pos_m
+    );
+    assert!(
+        (rot - summary.val_median_rot_deg).abs() < 1e-3,
+        "{rot} vs {}",
+        summary.val_median_rot_deg
+    );
+    // The model learned something: better than always answering the mean position (~1.2 m).
+    assert!(pos < 1.0, "median position error {pos}");
+}
+
+#[test]
+fn resume_continues_from_the_last_epoch_and_matches_an_uninterrupted_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    common::make_dataset(&data, 6, 16);
+    let straight = tmp.path().join("straight");
+    let (full, _) = run(&tiny_config(&data, &straight, 2));
+
+    let split = tmp.path().join("split");
+    let (first, _) = run(&tiny_config(&data, &split, 1));
+    assert_eq!(first.epochs, 1);
+    let mut cfg = tiny_config(&data, &split, 2);
+    cfg.resume = true;
+    let (second, events) = run(&cfg);
+    assert!(events.contains(&TrainEvent::Resumed { epoch: 1 }));
+    assert_eq!(step_losses(&events).len(), 4, "only epoch 2 runs");
+    assert_eq!(second.epochs, 2);
+    assert_eq!(second.history.len(), 2);
+    assert_eq!(second.history[0], first.history[0]);
+    let (a, b) = (&full.history[1], &second.history[1]);
+    assert!(
+        (a.val_median_pos_m - b.val_median_pos_m).abs() < 1e-4,
+        "{a:?} vs {b:?}"
+    );
+    assert!((a.train_loss - b.train_loss).abs() < 1e-4, "{a:?} vs {b:?}");
+
+    // Resuming a finished run trains nothing.
+    let (again, events) = run(&cfg);
+    assert_eq!(step_losses(&events).len(), 0);
+    assert_eq!(again.epochs, 2);
+}
+
+#[test]
+fn damaged_or_mismatched_checkpoints_are_clear_errors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    common::make_dataset(&data, 6, 8);
+    let out = tmp.path().join("model");
+    run(&tiny_config(&data, &out, 1));
+
+    // Other settings on resume.
+    let mut cfg = tiny_config(&data, &out, 2);
+    cfg.resume = true;
+    cfg.beta = 5.0;
+    let err = train(&cfg, &mut |_| {}).unwrap_err();
+    assert!(matches!(err, LearnError::Mismatch { .. }), "{err}");
+    assert!(err.to_string().contains("model.toml"), "{err}");
+
+    // Other data on resume.
+    let other = tmp.path().join("other");
+    common::make_dataset(&other, 6, 9);
+    let mut cfg = tiny_config(&other, &out, 2);
+    cfg.resume = true;
+    let err = train(&cfg, &mut |_| {}).unwrap_err();
+    assert!(matches!(err, LearnError::Mismatch { .. }), "{err}");
+
+    // Damaged weights.
+    let bpk = out.join("model.bpk");
+    let mut bytes = std::fs::read(&bpk).unwrap();
+    let n = bytes.len();
+    bytes[n / 2] ^= 0xff;
+    std::fs::write(&bpk, &bytes).unwrap();
+    let err = Localizer::load(&out).unwrap_err();
+    assert!(matches!(err, LearnError::Corrupt { .. }), "{err}");
+    assert!(err.to_string().contains("model.bpk"), "{err}");
+
+    // Truncated weights whose hash was "fixed up": the record itself is refused.
+    let toml_path = out.join("model.toml");
+    let text = std::fs::read_to_string(&toml_path).unwrap();
+    let meta: learn::checkpoint::ModelMeta = toml::from_str(&text).unwrap();
+    std::fs::write(&bpk, &bytes[..n / 3]).unwrap();
+    let mut fixed = meta.clone();
+    fixed.weights_hash = learn_hash(&bytes[..n / 3]);
+    std::fs::write(&toml_path, toml::to_string(&fixed).unwrap()).unwrap();
+    let err = Localizer::load(&out).unwrap_err();
+    assert!(matches!(err, LearnError::Corrupt { .. }), "{err}");
+
+    // Garbage model.toml, missing checkpoint.
+    std::fs::write(&toml_path, "arch = [").unwrap();
+    let err = Localizer::load(&out).unwrap_err();
+    assert!(err.to_string().contains("model.toml"), "{err}");
+    let err = Localizer::load(&tmp.path().join("nothing")).unwrap_err();
+    assert!(err.to_string().contains("model.toml"), "{err}");
+}
+
+/// The checkpoint's content hash (FNV-1a 64), computed independently.
+fn learn_hash(bytes: &[u8]) -> String {
+    let mut h: u64 = 0xcbf29ce484222325;
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x100000001b3);
+    }
+    format!("fnv1a64:{h:016x}")
+}
+
+#[test]
+fn mc_dropout_gives_uncertainty_deterministically_and_pose3_gives_level_ceiling_poses() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    common::make_dataset(&data, 3, 8);
+    let out = tmp.path().join("model");
+    let mut cfg = tiny_config(&data, &out, 1);
+    cfg.view = Some("gray,resize=32x24".into());
+    cfg.dropout = 0.3;
+    run(&cfg);
+    let loc = Localizer::load(&out).unwrap();
+    assert_eq!(loc.meta().coding.task, Task::Pose3);
+    assert_eq!(loc.meta().input, [1, 24, 32]);
+    let img = image::open(data.join("frames/000003.png")).unwrap();
+
+    let plain = loc.predict(&img, 0).unwrap();
+    assert_eq!(
+        (plain.sigma_pos_m, plain.sigma_rot_deg, plain.passes),
+        (0.0, 0.0, 0)
+    );
+    assert_eq!(loc.predict(&img, 1).unwrap(), plain);
+    // A level ceiling camera: optical axis straight up.
+    let up = plain.pose.rotation * nalgebra::Vector3::z();
+    assert!((up.z - 1.0).abs() < 1e-9, "{up:?}");
+    let p3 = plain.pose3.unwrap();
+    assert!((p3.x - plain.pose.translation.x).abs() < 1e-12);
+
+    let mc = loc.predict(&img, 16).unwrap();
+    assert_eq!(mc.passes, 16);
+    assert!(mc.sigma_pos_m > 0.0 && mc.sigma_rot_deg > 0.0, "{mc:?}");
+    assert_eq!(
+        loc.predict(&img, 16).unwrap(),
+        mc,
+        "same seed, same estimate"
+    );
+    let view = loc.view(&img).unwrap();
+    let batch = loc.predict_batch(&[view.clone(), view], 16).unwrap();
+    assert_eq!(batch.len(), 2);
+    assert!((batch[0].sigma_pos_m - mc.sigma_pos_m).abs() < 1e-6);
+    let other = Localizer::load(&out)
+        .unwrap()
+        .with_seed(99)
+        .predict(&img, 16)
+        .unwrap();
+    assert_ne!(other.sigma_pos_m, mc.sigma_pos_m);
+
+    // A view of the wrong size is an error, not a panic.
+    let wrong = imgproc::view::ViewSpec::resolve("gray,resize=16x16")
+        .unwrap()
+        .apply(&img, 0)
+        .unwrap();
+    assert!(matches!(
+        loc.predict_view(&wrong, 0),
+        Err(LearnError::Input(_))
+    ));
+}
+
+#[test]
+fn bad_configurations_and_datasets_are_errors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    common::make_dataset(&data, 6, 4);
+    let out = tmp.path().join("model");
+    let mut cfg = tiny_config(&data, &out, 1);
+    cfg.batch_size = 1;
+    assert!(matches!(
+        train(&cfg, &mut |_| {}),
+        Err(LearnError::Config(_))
+    ));
+    let mut cfg = tiny_config(&data, &out, 1);
+    cfg.view = Some("resize=0x3".into());
+    assert!(matches!(
+        train(&cfg, &mut |_| {}),
+        Err(LearnError::Config(_))
+    ));
+    std::fs::remove_file(data.join("frames/000002.png")).unwrap();
+    let err = train(&tiny_config(&data, &out, 1), &mut |_| {}).unwrap_err();
+    assert!(err.to_string().contains("000002.png"), "{err}");
+    let err = train(&tiny_config(&tmp.path().join("none"), &out, 1), &mut |_| {}).unwrap_err();
+    assert!(err.to_string().contains("dataset.toml"), "{err}");
+}
