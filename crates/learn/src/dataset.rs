@@ -93,7 +93,7 @@ fn split_frames<'a>(traj: &'a Trajectory, splits: &Splits, which: SplitName) -> 
     let seqs = splits.get(which);
     traj.frames
         .iter()
-        .filter(|f| seqs.iter().any(|s| *s == f.seq))
+        .filter(|f| seqs.contains(&f.seq))
         .collect()
 }
 

@@ -215,8 +215,8 @@ impl PoseCoding {
     /// inverse of [`PoseCoding::decode`], used by tests and to check a checkpoint's coding.
     pub fn encode(&self, pose: &Pose) -> Vec<f32> {
         let mut row = self.target(pose);
-        for i in 0..self.task.pos_dims() {
-            row[i] = ((row[i] as f64 - self.pos_mean[i]) / self.pos_std[i]) as f32;
+        for ((v, m), s) in row.iter_mut().zip(&self.pos_mean).zip(&self.pos_std) {
+            *v = ((*v as f64 - m) / s) as f32;
         }
         row
     }

@@ -23,29 +23,20 @@ pub struct LossParts {
     pub rot: Tensor<1>,
 }
 
-/// How the two loss parts are combined.
-#[derive(Clone, Debug)]
-pub enum Weighting {
-    /// `Lx + β·Lq`.
-    Fixed {
-        /// β.
-        beta: f64,
-    },
-    /// `Lx·exp(−s_x) + s_x + Lq·exp(−s_q) + s_q` with `[s_x, s_q]` trained with the network.
-    Learned(Tensor<1>),
-}
-
 /// Row-wise Euclidean norm `[B, D] -> [B, 1]`.
 fn row_norm(x: Tensor<2>) -> Tensor<2> {
     x.square().sum_dim(1).add_scalar(SQRT_EPS).sqrt()
 }
 
-/// The loss of network outputs `[B, outputs]` against targets from [`PoseCoding::target`].
+/// The loss of network outputs `[B, outputs]` against targets from [`PoseCoding::target`]:
+/// `Lx + β·Lq`, or with `log_vars = [s_x, s_q]` (trained with the network)
+/// `Lx·exp(−s_x) + s_x + Lq·exp(−s_q) + s_q`.
 pub fn pose_loss(
     coding: &PoseCoding,
     outputs: Tensor<2>,
     targets: Tensor<2>,
-    weighting: &Weighting,
+    beta: f64,
+    log_vars: Option<Tensor<1>>,
 ) -> LossParts {
     let device = outputs.device();
     let d = coding.task.pos_dims();
@@ -60,11 +51,11 @@ pub fn pose_loss(
     let rot_hat = outputs.narrow(1, d, r);
     let rot_hat = rot_hat.clone() / row_norm(rot_hat);
     let lq = row_norm(rot_hat - targets.narrow(1, d, r)).mean();
-    let total = match weighting {
-        Weighting::Fixed { beta } => lx.clone() + lq.clone().mul_scalar(*beta),
-        Weighting::Learned(s) => {
+    let total = match log_vars {
+        None => lx.clone() + lq.clone().mul_scalar(beta),
+        Some(s) => {
             let sx = s.clone().narrow(0, 0, 1);
-            let sq = s.clone().narrow(0, 1, 1);
+            let sq = s.narrow(0, 1, 1);
             lx.clone() * sx.clone().neg().exp() + sx + lq.clone() * sq.clone().neg().exp() + sq
         }
     };
@@ -106,17 +97,12 @@ mod tests {
             TensorData::new(vec![0.0f32, 4., 0., 0., 0., 0., 1.], [1, 7]),
             &device,
         );
-        let parts = pose_loss(
-            &coding,
-            out.clone(),
-            tgt.clone(),
-            &Weighting::Fixed { beta: 10.0 },
-        );
+        let parts = pose_loss(&coding, out.clone(), tgt.clone(), 10.0, None);
         assert!((scalar(parts.pos) - 5.0).abs() < 1e-5);
         assert!((scalar(parts.rot) - 2f32.sqrt()).abs() < 1e-5);
         assert!((scalar(parts.total) - (5.0 + 10.0 * 2f32.sqrt())).abs() < 1e-4);
         let s = Tensor::<1>::from_floats([0.5, -1.0], &device);
-        let parts = pose_loss(&coding, out, tgt, &Weighting::Learned(s));
+        let parts = pose_loss(&coding, out, tgt, 10.0, Some(s));
         let expect = 5.0 * (-0.5f32).exp() + 0.5 + 2f32.sqrt() * 1f32.exp() - 1.0;
         assert!((scalar(parts.total) - expect).abs() < 1e-4);
     }

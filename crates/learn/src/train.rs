@@ -23,7 +23,7 @@ use crate::checkpoint::{self, DatasetRef, FORMAT, MODEL_BPK, MODEL_TOML, ModelMe
 use crate::dataset::{self, Samples, TrainData};
 use crate::head::{PoseCoding, Task};
 use crate::infer;
-use crate::loss::{Weighting, pose_loss};
+use crate::loss::pose_loss;
 use crate::net::{Arch, NetConfig, PoseNet, mc};
 use crate::{LearnError, Result};
 
@@ -583,11 +583,7 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
             let (x, y) = batch(&data.train, &targets, idx, &device);
             let mask = mc::mask_tensor(idx.len(), features, cfg.dropout, &mut rng, &device);
             let out = net.forward_masked(x, mask);
-            let weighting = match net.log_vars() {
-                Some(s) => Weighting::Learned(s),
-                None => Weighting::Fixed { beta: cfg.beta },
-            };
-            let parts = pose_loss(&coding, out, y, &weighting);
+            let parts = pose_loss(&coding, out, y, cfg.beta, net.log_vars());
             let grads = GradientsParams::from_grads(parts.total.backward(), &net);
             let loss: f64 = parts.total.into_scalar::<f32>() as f64;
             if !loss.is_finite() {

@@ -8,7 +8,7 @@ use burn::module::Module;
 use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::{Device, Distribution, Tensor};
 use geom::Mount;
-use learn::loss::{Weighting, pose_loss};
+use learn::loss::pose_loss;
 use learn::{Arch, NetConfig, PoseCoding, Task};
 
 #[test]
@@ -38,7 +38,7 @@ fn small_net_training_step_and_inference() {
     for i in 0..13 {
         let t = Instant::now();
         let out = net.forward(x.clone());
-        let loss = pose_loss(&coding, out, y.clone(), &Weighting::Fixed { beta: 1.0 }).total;
+        let loss = pose_loss(&coding, out, y.clone(), 1.0, None).total;
         let grads = GradientsParams::from_grads(loss.backward(), &net);
         net = optim.step(1e-3, net, grads);
         let _ = loss.into_scalar::<f32>();

@@ -164,6 +164,9 @@ impl ModuleVisitor for CountTrainable {
 }
 
 /// The backbone of a [`PoseNet`].
+// One per network and never stored in bulk, so the size difference of the variants costs
+// nothing; burn's `Module` derive cannot see through a `Box`.
+#[allow(clippy::large_enum_variant)]
 #[derive(Module, Debug)]
 pub enum Backbone {
     /// The small network.
