@@ -17,3 +17,9 @@ pub fn print_text(text: &str) -> anyhow::Result<()> {
     out.write_all(text.as_bytes())?;
     Ok(())
 }
+
+/// Median of timings or other figures; NaN for none (shown as such rather than failing a run
+/// whose every image was bad).
+pub fn median(values: &[f64]) -> f64 {
+    geom::metrics::Stats::of(values).map_or(f64::NAN, |s| s.median)
+}

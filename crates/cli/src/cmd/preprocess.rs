@@ -161,8 +161,8 @@ pub fn run(args: &PreprocessArgs) -> Result<()> {
     }
     let output = PreprocessOutput {
         view: spec.to_string(),
-        ms_per_image: median(images.iter().map(|w| w.view_ms).collect()),
-        decode_ms_per_image: median(decode_ms),
+        ms_per_image: crate::output::median(&images.iter().map(|w| w.view_ms).collect::<Vec<_>>()),
+        decode_ms_per_image: crate::output::median(&decode_ms),
         images,
         bad,
         threads,
@@ -254,19 +254,6 @@ fn output_paths(files: &[PathBuf], dir: &Path) -> Result<Vec<PathBuf>> {
         out.push(dir.join(format!("{stem}.png")));
     }
     Ok(out)
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_unstable_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        (v[n / 2 - 1] + v[n / 2]) / 2.0
-    }
 }
 
 fn summary_text(o: &PreprocessOutput, dir: &Path) -> String {

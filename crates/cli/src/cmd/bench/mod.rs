@@ -240,7 +240,7 @@ fn bench_eval(args: &BenchArgs) -> Result<StageFigures> {
             evaluate(&eval_args)?; // figures discarded: only the time counts
             ms.push(t.elapsed().as_secs_f64() * 1e3);
         }
-        Ok(median(ms))
+        Ok(crate::output::median(&ms))
     };
     let ms = time(false)?;
     let ms_with_report = time(true)?;
@@ -295,16 +295,6 @@ fn frame(t: f64, pose: Pose) -> PoseFrame {
         seq: String::new(),
         t: Some(t),
         pose,
-    }
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_unstable_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        (v[n / 2 - 1] + v[n / 2]) / 2.0
     }
 }
 

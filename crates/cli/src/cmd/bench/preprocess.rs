@@ -168,8 +168,7 @@ where
         f()?;
         ms.push(t.elapsed().as_secs_f64() * 1e3);
     }
-    ms.sort_unstable_by(f64::total_cmp);
-    Ok(ms[RUNS / 2])
+    Ok(crate::output::median(&ms))
 }
 
 /// A real 640x480 photo from the shared data, when it is beside the checkout.
