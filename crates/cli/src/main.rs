@@ -27,6 +27,10 @@ enum Command {
     Synth(cmd::synth::SynthArgs),
     /// Write the network's view of images (grey, resize, CLAHE, ...) as PNGs.
     Preprocess(cmd::preprocess::PreprocessArgs),
+    /// Train a pose-regression network on a native dataset (checkpoint every epoch).
+    Train(cmd::train::TrainArgs),
+    /// Poses of images, an image folder, a video or a dataset from a trained model.
+    Localize(cmd::localize::LocalizeArgs),
     /// Speed figures of each stage, beside the reference peer where one is installed.
     Bench(cmd::bench::BenchArgs),
 }
@@ -38,6 +42,8 @@ fn main() -> ExitCode {
         Command::Bench(args) => cmd::bench::run(&args),
         Command::Synth(args) => cmd::synth::run(&args),
         Command::Preprocess(args) => cmd::preprocess::run(&args),
+        Command::Train(args) => cmd::train::run(&args),
+        Command::Localize(args) => cmd::localize::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

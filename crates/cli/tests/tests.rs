@@ -1,6 +1,7 @@
 //! Integration tests of the `indoorloc` binary, one module per theme.
 
 mod eval_cli;
+mod learn_cli;
 mod metrics_reference;
 mod preprocess_cli;
 mod synth_cli;

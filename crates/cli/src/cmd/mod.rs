@@ -2,6 +2,8 @@
 
 pub mod bench;
 pub mod eval;
+pub mod localize;
 pub mod parse;
 pub mod preprocess;
 pub mod synth;
+pub mod train;

@@ -1,0 +1,231 @@
+//! `indoorloc localize`: poses of images from a trained model, one line per frame as each is
+//! done (JSON lines as DESIGN.md specifies, or TUM), so a pipe sees poses while a long input is
+//! still being read.
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, ValueEnum};
+use data::frames::{self, FrameSource};
+use data::native::{NativeDataset, SplitName};
+use learn::{Estimate, Localizer};
+use serde::Serialize;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Output formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OutFormat {
+    /// One JSON object per frame: frame, position, quaternion [w, x, y, z], sigma_pos_m, ...
+    Jsonl,
+    /// TUM trajectory lines: t tx ty tz qx qy qz qw (t: the frame's time, else its index).
+    Tum,
+}
+
+/// Which frames of a native dataset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Split {
+    /// Every frame.
+    All,
+    /// The training sequences.
+    Train,
+    /// The validation sequences.
+    Val,
+    /// The test sequences.
+    Test,
+}
+
+/// Arguments of `indoorloc localize`.
+#[derive(Args, Debug)]
+pub struct LocalizeArgs {
+    /// Checkpoint folder written by `indoorloc train`.
+    #[arg(long, value_name = "MODEL")]
+    model: PathBuf,
+    /// An image, an image folder, a video file, or a native dataset folder.
+    input: PathBuf,
+    /// Monte-Carlo-dropout passes per frame (0: one deterministic pass, no uncertainty).
+    #[arg(long, default_value_t = 16)]
+    mc: usize,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = OutFormat::Jsonl)]
+    format: OutFormat,
+    /// For a native dataset: which split's frames.
+    #[arg(long, value_enum, default_value_t = Split::All)]
+    split: Split,
+    /// Write to this file (atomically, when all frames are done) instead of stdout.
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+}
+
+/// One output line in JSON lines format.
+#[derive(Debug, Serialize)]
+pub struct PoseLine {
+    /// Image file stem, native frame name, or video frame index.
+    pub frame: String,
+    /// Sequence of a native dataset frame (so `eval` pairs by sequence and name).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seq: Option<String>,
+    /// Time of the frame where the source has one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub t: Option<f64>,
+    /// Camera centre in the world, metres.
+    pub position: [f64; 3],
+    /// Camera-to-world rotation, w, x, y, z.
+    pub quaternion: [f64; 4],
+    /// 3-DoF pose `[x, y, heading]` for 3-DoF models.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pose3: Option<[f64; 3]>,
+    /// `sqrt(trace Σ_pos)` over the MC passes, metres.
+    pub sigma_pos_m: f64,
+    /// RMS rotation of the MC passes about their mean, degrees.
+    pub sigma_rot_deg: f64,
+    /// Time to localise this frame (view + network), milliseconds.
+    pub latency_ms: f64,
+}
+
+impl PoseLine {
+    /// The line for `est` of a frame.
+    pub fn new(
+        frame: String,
+        seq: Option<String>,
+        t: Option<f64>,
+        est: &Estimate,
+        latency_ms: f64,
+    ) -> Self {
+        PoseLine {
+            frame,
+            seq,
+            t,
+            position: est.pose.position(),
+            quaternion: est.pose.quat_wxyz(),
+            pose3: est.pose3.map(|p| [p.x, p.y, p.heading]),
+            sigma_pos_m: est.sigma_pos_m,
+            sigma_rot_deg: est.sigma_rot_deg,
+            latency_ms,
+        }
+    }
+
+    fn write(&self, format: OutFormat, index: usize, w: &mut dyn Write) -> Result<()> {
+        match format {
+            OutFormat::Jsonl => {
+                serde_json::to_writer(&mut *w, self)?;
+                writeln!(w)?;
+            }
+            OutFormat::Tum => {
+                let [x, y, z] = self.position;
+                let [qw, qx, qy, qz] = self.quaternion;
+                let t = self.t.unwrap_or(index as f64);
+                writeln!(
+                    w,
+                    "{t:.6} {x:.6} {y:.6} {z:.6} {qx:.9} {qy:.9} {qz:.9} {qw:.9}"
+                )?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One frame to localise: where its pixels come from and what to call it.
+struct Item {
+    name: String,
+    seq: Option<String>,
+    t: Option<f64>,
+    image: Result<image::DynamicImage>,
+}
+
+/// Runs `indoorloc localize`.
+pub fn run(args: &LocalizeArgs) -> Result<()> {
+    let loc = Localizer::load(&args.model)?;
+    let items = frames_of(&args.input, args.split)?;
+    let mut buffer = Vec::new();
+    let stdout = std::io::stdout();
+    let mut lock = stdout.lock();
+    let w: &mut dyn Write = if args.out.is_some() {
+        &mut buffer
+    } else {
+        &mut lock
+    };
+    let mut bad = Vec::new();
+    let mut done = 0usize;
+    for (index, item) in items.enumerate() {
+        let img = match item.image {
+            Ok(img) => img,
+            Err(e) => {
+                eprintln!("indoorloc: skipped: {e:#}");
+                bad.push(item.name);
+                continue;
+            }
+        };
+        let t0 = Instant::now();
+        let est = loc
+            .predict(&img, args.mc)
+            .with_context(|| format!("frame {}", item.name))?;
+        let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
+        PoseLine::new(item.name, item.seq, item.t, &est, latency_ms).write(
+            args.format,
+            index,
+            w,
+        )?;
+        done += 1;
+    }
+    if let Some(path) = &args.out {
+        data::io::write_atomic(path, |f| f.write_all(&buffer))?;
+    }
+    if !bad.is_empty() {
+        bail!(
+            "{}: {} of {} frames could not be read (first: {}); the others were localised",
+            args.input.display(),
+            bad.len(),
+            bad.len() + done,
+            bad[0]
+        );
+    }
+    Ok(())
+}
+
+/// The frames of `input`, decoded lazily: a native dataset's frames (of `split`), or any frame
+/// source `data::frames` opens (image, image folder, video).
+fn frames_of(input: &Path, split: Split) -> Result<Box<dyn Iterator<Item = Item>>> {
+    if input.join("dataset.toml").is_file() {
+        let ds = NativeDataset::open(input)?;
+        let indices: Vec<usize> = match split {
+            Split::All => (0..ds.trajectory.len()).collect(),
+            Split::Train => ds.split_frames(SplitName::Train),
+            Split::Val => ds.split_frames(SplitName::Val),
+            Split::Test => ds.split_frames(SplitName::Test),
+        };
+        if indices.is_empty() {
+            bail!("{}: the {split:?} split has no frames", input.display());
+        }
+        return Ok(Box::new(indices.into_iter().filter_map(move |i| {
+            let frame = ds.frame_number(i)?;
+            let f = &ds.trajectory.frames[i];
+            Some(Item {
+                name: f.name.clone(),
+                seq: (!f.seq.is_empty()).then(|| f.seq.clone()),
+                t: f.t,
+                image: frames::decode_image(&ds.frame_path(frame)).map_err(Into::into),
+            })
+        })));
+    }
+    if split != Split::All {
+        bail!(
+            "{}: --split needs a native dataset folder (with dataset.toml)",
+            input.display()
+        );
+    }
+    let source: Box<dyn FrameSource + Send> = frames::open(input)?;
+    Ok(Box::new(source.enumerate().map(|(i, r)| match r {
+        Ok(f) => Item {
+            name: f.name,
+            seq: None,
+            t: f.t,
+            image: Ok(image::DynamicImage::ImageRgb8(f.image)),
+        },
+        Err(e) => Item {
+            name: format!("{i:06}"),
+            seq: None,
+            t: None,
+            image: Err(e.into()),
+        },
+    })))
+}

@@ -1,0 +1,212 @@
+//! `indoorloc train`: trains a pose-regression network on a native dataset, with a checkpoint
+//! every epoch (`--resume` continues from it).
+
+use crate::output::{print_json, print_text};
+use crate::progress::bar;
+use anyhow::Result;
+use clap::Args;
+use indicatif::ProgressBar;
+use learn::{Arch, OptimizerKind, Schedule, Task, TrainConfig, TrainEvent, TrainSummary};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `indoorloc train`.
+#[derive(Args, Debug)]
+pub struct TrainArgs {
+    /// Native dataset folder (train / val split by sequence from its splits.toml).
+    #[arg(long, value_name = "DIR")]
+    data: PathBuf,
+    /// Checkpoint folder (model.toml, model.bpk, training state).
+    #[arg(long, value_name = "MODEL")]
+    out: PathBuf,
+    /// pose6 (position + quaternion) or pose3 (x, y, heading of a ceiling camera); default from
+    /// the dataset's dof.
+    #[arg(long)]
+    task: Option<Task>,
+    /// Backbone: small (fast) or resnet18.
+    #[arg(long, default_value = "small")]
+    arch: Arch,
+    /// Input view: a preset (gray160, rgb256, ...) or spec text; default gray160 for pose3,
+    /// rgb256 for pose6.
+    #[arg(long)]
+    view: Option<String>,
+    /// Epochs to reach (a resumed run continues up to this number).
+    #[arg(long, default_value_t = 30)]
+    epochs: usize,
+    /// Images per step.
+    #[arg(long, default_value_t = 32)]
+    batch: usize,
+    /// Cap on optimisation steps per epoch.
+    #[arg(long)]
+    steps_per_epoch: Option<usize>,
+    /// Base learning rate (cosine decay to 1 % of it).
+    #[arg(long, default_value_t = 1e-3)]
+    lr: f64,
+    /// Adam with AMSGrad instead of AdamW.
+    #[arg(long)]
+    amsgrad: bool,
+    /// Weight decay.
+    #[arg(long, default_value_t = 1e-4)]
+    weight_decay: f64,
+    /// β of the loss: metres per unit of quaternion (or heading) distance.
+    #[arg(long, default_value_t = 10.0)]
+    beta: f64,
+    /// Learn the weighting of position and rotation loss (homoscedastic uncertainty) instead of β.
+    #[arg(long)]
+    learned_weighting: bool,
+    /// Dropout on the pooled features (also the MC-dropout rate at inference).
+    #[arg(long, default_value_t = 0.2)]
+    dropout: f64,
+    /// Stop after this many epochs without a better validation median position error.
+    #[arg(long, default_value_t = 10)]
+    patience: usize,
+    /// Seed of initialisation, shuffling, augmentation and dropout.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Continue from the checkpoint in --out.
+    #[arg(long)]
+    resume: bool,
+    /// Print one JSON document instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+impl TrainArgs {
+    /// The library configuration these arguments describe.
+    pub fn config(&self) -> TrainConfig {
+        let mut cfg = TrainConfig::new(&self.data, &self.out);
+        cfg.task = self.task;
+        cfg.arch = self.arch;
+        cfg.view = self.view.clone();
+        cfg.epochs = self.epochs;
+        cfg.batch_size = self.batch;
+        cfg.max_steps_per_epoch = self.steps_per_epoch;
+        cfg.lr = self.lr;
+        cfg.schedule = Schedule::Cosine {
+            final_fraction: 0.01,
+        };
+        cfg.optimizer = if self.amsgrad {
+            OptimizerKind::Amsgrad
+        } else {
+            OptimizerKind::AdamW
+        };
+        cfg.weight_decay = self.weight_decay;
+        cfg.beta = self.beta;
+        cfg.learned_weighting = self.learned_weighting;
+        cfg.dropout = self.dropout;
+        cfg.patience = Some(self.patience);
+        cfg.seed = self.seed;
+        cfg.resume = self.resume;
+        cfg
+    }
+}
+
+/// The `--json` document.
+#[derive(Debug, Serialize)]
+struct TrainOutput {
+    out: PathBuf,
+    epochs: usize,
+    best_epoch: usize,
+    val_median_pos_m: f64,
+    val_median_rot_deg: f64,
+    stopped_early: bool,
+    train_frames: usize,
+    val_frames: usize,
+    seconds: f64,
+}
+
+/// Runs `indoorloc train`.
+pub fn run(args: &TrainArgs) -> Result<()> {
+    let start = Instant::now();
+    let summary = train_with_progress(&args.config(), !args.json)?;
+    let out = TrainOutput {
+        out: summary.out.clone(),
+        epochs: summary.epochs,
+        best_epoch: summary.best_epoch,
+        val_median_pos_m: summary.val_median_pos_m,
+        val_median_rot_deg: summary.val_median_rot_deg,
+        stopped_early: summary.stopped_early,
+        train_frames: summary.train_frames,
+        val_frames: summary.val_frames,
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    if args.json {
+        print_json(&out)
+    } else {
+        print_text(&format!(
+            "model     {}\nepochs    {} (best {}{})\nval       median {:.3} m, {:.2}°\nframes    {} train, {} val\ntime      {:.1} s\n",
+            out.out.display(),
+            out.epochs,
+            out.best_epoch,
+            if out.stopped_early {
+                ", stopped early"
+            } else {
+                ""
+            },
+            out.val_median_pos_m,
+            out.val_median_rot_deg,
+            out.train_frames,
+            out.val_frames,
+            out.seconds
+        ))
+    }
+}
+
+/// Trains with a progress bar per epoch and one line per finished epoch on stderr (`lines`:
+/// also when stderr is not a terminal, for logs).
+pub fn train_with_progress(cfg: &TrainConfig, lines: bool) -> Result<TrainSummary> {
+    let mut pb: Option<ProgressBar> = None;
+    let summary = learn::train(cfg, &mut |event| match event {
+        TrainEvent::Loaded {
+            train,
+            val,
+            input,
+            seconds,
+        } => {
+            if lines {
+                eprintln!(
+                    "data: {train} train / {val} val frames, input {}x{}x{}, loaded in {seconds:.1} s",
+                    input[0], input[1], input[2]
+                );
+            }
+        }
+        TrainEvent::Resumed { epoch } => eprintln!("resuming after epoch {epoch}"),
+        TrainEvent::Step {
+            epoch,
+            step,
+            steps,
+            loss,
+        } => {
+            let p = pb.get_or_insert_with(|| bar(*steps as u64, &format!("epoch {epoch}")));
+            p.set_position(*step as u64);
+            p.set_message(format!("epoch {epoch} loss {loss:.3}"));
+        }
+        TrainEvent::Epoch(m) => {
+            if let Some(p) = pb.take() {
+                p.finish_and_clear();
+            }
+            if lines {
+                eprintln!(
+                    "epoch {:>3}  loss {:.4}  train {:.3} m  val median {:.3} m {:.2}°  lr {:.2e}  {:.1} s",
+                    m.epoch,
+                    m.train_loss,
+                    m.train_pos_m,
+                    m.val_median_pos_m,
+                    m.val_median_rot_deg,
+                    m.lr,
+                    m.seconds
+                );
+            }
+        }
+        TrainEvent::EarlyStop { epoch, best_epoch } => {
+            if lines {
+                eprintln!("early stop after epoch {epoch}; keeping epoch {best_epoch}");
+            }
+        }
+    });
+    if let Some(p) = pb {
+        p.finish_and_clear();
+    }
+    Ok(summary?)
+}

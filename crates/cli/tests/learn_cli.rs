@@ -1,0 +1,116 @@
+//! `indoorloc train` → `localize` → `eval` from the outside, on a tiny rendered dataset: the
+//! checkpoint's stored validation error is what `localize` + `eval` measure again.
+
+use crate::util::{TestResult, indoorloc, json_of};
+
+#[test]
+fn train_localize_eval_agree_on_the_validation_error() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let (ds, model) = (dir.path().join("ds"), dir.path().join("model"));
+    let (ds_s, model_s) = (ds.to_str().ok_or("path")?, model.to_str().ok_or("path")?);
+    json_of(&indoorloc(&[
+        "synth",
+        "--out",
+        ds_s,
+        "--frames",
+        "48",
+        "--sequences",
+        "6",
+        "--size",
+        "64x48",
+        "--no-depth",
+        "--no-planes",
+        "--json",
+    ])?)?;
+    let train = |extra: &[&str]| -> TestResult<serde_json::Value> {
+        let mut args = vec![
+            "train",
+            "--data",
+            ds_s,
+            "--out",
+            model_s,
+            "--batch",
+            "8",
+            "--view",
+            "resize=64x48,norm=pm1",
+            "--seed",
+            "3",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        json_of(&indoorloc(&args)?)
+    };
+    let t = train(&["--epochs", "1"])?;
+    assert_eq!(t["epochs"], 1);
+    // Resuming continues from the stored epoch.
+    let t = train(&["--epochs", "2", "--resume"])?;
+    assert_eq!(t["epochs"], 2);
+    let val_median = t["val_median_pos_m"].as_f64().ok_or("val_median_pos_m")?;
+    assert!(val_median.is_finite() && val_median > 0.0);
+
+    // Deterministic poses of the validation frames, as JSON lines in a file.
+    let est = dir.path().join("val.jsonl");
+    let out = indoorloc(&[
+        "localize",
+        "--model",
+        model_s,
+        ds_s,
+        "--split",
+        "val",
+        "--mc",
+        "0",
+        "--out",
+        est.to_str().ok_or("path")?,
+    ])?;
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines = std::fs::read_to_string(&est)?;
+    let first: serde_json::Value = serde_json::from_str(lines.lines().next().ok_or("no lines")?)?;
+    for key in [
+        "frame",
+        "position",
+        "quaternion",
+        "sigma_pos_m",
+        "latency_ms",
+    ] {
+        assert!(!first[key].is_null(), "{key} missing in {first}");
+    }
+    let e = json_of(&indoorloc(&[
+        "eval",
+        "--gt",
+        ds_s,
+        "--est",
+        est.to_str().ok_or("path")?,
+        "--json",
+    ])?)?;
+    assert_eq!(e["frames"].as_u64(), Some(lines.lines().count() as u64));
+    let measured = e["median_pos_m"].as_f64().ok_or("median_pos_m")?;
+    assert!(
+        (measured - val_median).abs() < 1e-3,
+        "eval {measured} vs checkpoint {val_median}"
+    );
+
+    // MC dropout gives an uncertainty, on stdout as JSON lines.
+    let out = indoorloc(&[
+        "localize", "--model", model_s, ds_s, "--split", "val", "--mc", "4",
+    ])?;
+    assert!(out.status.success());
+    let line: serde_json::Value = serde_json::from_slice(
+        out.stdout
+            .split(|&b| b == b'\n')
+            .next()
+            .ok_or("no output")?,
+    )?;
+    assert!(line["sigma_pos_m"].as_f64().ok_or("sigma")? > 0.0);
+
+    // A corrupt checkpoint is a one-line error naming the file, exit code 2.
+    std::fs::write(model.join("model.toml"), "arch = 7\n")?;
+    let out = indoorloc(&["localize", "--model", model_s, ds_s])?;
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("model.toml"), "{stderr}");
+    Ok(())
+}
