@@ -21,6 +21,8 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// The whole job on the built-in building: render, train, localize a held-out walk, report.
+    Demo(cmd::demo::DemoArgs),
     /// Compare estimated poses with ground truth: error statistics, accuracy, plots.
     Eval(cmd::eval::EvalArgs),
     /// Render a synthetic posed dataset of the built-in building or a model file.
@@ -38,6 +40,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Demo(args) => cmd::demo::run(&args),
         Command::Eval(args) => cmd::eval::run(&args),
         Command::Bench(args) => cmd::bench::run(&args),
         Command::Synth(args) => cmd::synth::run(&args),

@@ -1,5 +1,6 @@
 //! Integration tests of the `indoorloc` binary, one module per theme.
 
+mod demo_cli;
 mod eval_cli;
 mod learn_cli;
 mod metrics_reference;

@@ -221,6 +221,26 @@ impl WalkGraph {
         }
         adj
     }
+
+    /// The part of the graph whose nodes lie in regions of `regions` that `keep` accepts, with
+    /// the edges between them (nodes renumbered, region indices kept). Walks on it stay in one
+    /// zone of a building, e.g. one storey, so a small dataset can cover that zone densely.
+    pub fn within(&self, regions: &[Region], keep: impl Fn(&Place) -> bool) -> WalkGraph {
+        let mut new_index = vec![None; self.nodes.len()];
+        let mut nodes = Vec::new();
+        for (i, node) in self.nodes.iter().enumerate() {
+            if regions.get(node.region).is_some_and(|r| keep(&r.place)) {
+                new_index[i] = Some(nodes.len());
+                nodes.push(node.clone());
+            }
+        }
+        let edges = self
+            .edges
+            .iter()
+            .filter_map(|&[a, b]| Some([(*new_index.get(a)?)?, (*new_index.get(b)?)?]))
+            .collect();
+        WalkGraph { nodes, edges }
+    }
 }
 
 /// Conditions of the air and light as a whole.
@@ -385,6 +405,36 @@ mod tests {
         };
         assert_eq!(t.normal(), Vector3::new(0.0, 0.0, 1.0));
         assert_eq!(t.area(), 2.0);
+    }
+
+    #[test]
+    fn walk_graph_within_keeps_one_storey() {
+        let region = |storey| Region {
+            min: [0.0, 0.0],
+            max: [1.0, 1.0],
+            floor_z: 3.0 * f32::from(storey),
+            ceiling_z: 3.0 * f32::from(storey) + 2.5,
+            place: Place {
+                building: 0,
+                storey,
+                corridor: None,
+                kind: PlaceKind::Corridor,
+                axis: None,
+            },
+        };
+        let node = |region, z| WalkNode {
+            p: Point3::new(0.5, 0.5, z),
+            region,
+        };
+        let graph = WalkGraph {
+            nodes: vec![node(0, 0.0), node(1, 3.0), node(0, 0.0), node(1, 3.0)],
+            edges: vec![[0, 1], [0, 2], [1, 3], [2, 3]],
+        };
+        let regions = [region(0), region(1)];
+        let upper = graph.within(&regions, |p| p.storey == 1);
+        assert_eq!(upper.nodes, vec![node(1, 3.0), node(1, 3.0)]);
+        assert_eq!(upper.edges, vec![[0, 1]]);
+        assert!(graph.within(&regions, |p| p.storey == 7).nodes.is_empty());
     }
 
     #[test]

@@ -1,0 +1,477 @@
+//! `indoorloc demo`: the whole job on the built-in building, with nothing to download.
+//!
+//! 1. Renders one storey of the default building: training walks under several appearance
+//!    variants, a validation walk and a held-out test walk ([`scene`]).
+//! 2. Trains the default network on it (resuming when a checkpoint of the same setup exists).
+//! 3. Localizes the test walk with Monte-Carlo-dropout uncertainty.
+//! 4. Evaluates and writes an HTML report ([`page`]): error table, CDFs, a top-down map coloured
+//!    by error, uncertainty against error, and test frames beside renders from their estimates.
+//!
+//! Every stage writes into `--out` and a second run reuses what is there, so an interrupted
+//! demo continues where it stopped.
+
+mod page;
+mod scene;
+
+use crate::cmd::train::train_with_progress;
+use crate::output::{print_json, print_text};
+use crate::progress::bar;
+use anyhow::{Context, Result};
+use clap::{Args, ValueEnum};
+use data::native::{NativeDataset, SplitName};
+use geom::metrics::{Pose3Evaluation, PoseEvaluation, pearson};
+use geom::{Pose, Pose3};
+use learn::{Arch, Estimate, Localizer, Schedule, Task, TrainConfig};
+use rayon::prelude::*;
+use scene::ScenePlan;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The camera of the demo.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DemoCamera {
+    /// Hand-held, looking ahead: 6-DoF pose (position and rotation).
+    Forward,
+    /// On a robot, looking up at the ceiling: 3-DoF pose (x, y, heading).
+    Ceiling,
+}
+
+/// Arguments of `indoorloc demo`.
+#[derive(Args, Debug)]
+pub struct DemoArgs {
+    /// Folder for the dataset, the model and the report (reused by a second run).
+    #[arg(long, value_name = "DIR", default_value = "indoorloc-demo")]
+    out: PathBuf,
+    /// A smaller dataset and shorter training: minutes instead of half an hour.
+    #[arg(long)]
+    quick: bool,
+    /// Forward-looking hand-held camera (6-DoF) or upward ceiling camera (3-DoF).
+    #[arg(long, value_enum, default_value_t = DemoCamera::Forward)]
+    camera: DemoCamera,
+    /// Seed of the building, the walks and the training.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Where the walks go: `corridor` (the ground-floor corridor of building 0) or `storey`
+    /// (the whole ground floor: lobby, corridor and rooms; needs more frames and training).
+    #[arg(long, default_value = "corridor", value_parser = ["corridor", "storey"])]
+    zone: String,
+    /// Override the network's input view (a preset or spec text, as `train --view` takes).
+    #[arg(long)]
+    view: Option<String>,
+    /// Override the number of training frames (spread over the variants' walks).
+    #[arg(long)]
+    train_frames: Option<usize>,
+    /// Override the length of the held-out test walk, frames (the validation walk is half as
+    /// long).
+    #[arg(long)]
+    test_frames: Option<usize>,
+    /// Override the number of training epochs.
+    #[arg(long)]
+    epochs: Option<usize>,
+    /// Monte-Carlo-dropout passes per test frame.
+    #[arg(long, default_value_t = 16)]
+    mc: usize,
+    /// Print one JSON document instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Everything the demo does, decided from the arguments.
+struct Setup {
+    scene: ScenePlan,
+    train: TrainConfig,
+}
+
+fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
+    let ceiling = args.camera == DemoCamera::Ceiling;
+    let variants: &[&str] = if args.quick {
+        &["normal", "dim", "some-lights-off"]
+    } else {
+        &[
+            "normal",
+            "dim",
+            "some-lights-off",
+            "daylight",
+            "furniture-moved",
+            "posters-changed",
+        ]
+    };
+    let walks = if args.quick { 2 } else { 4 };
+    let train_frames = args
+        .train_frames
+        .unwrap_or(if args.quick { 16000 } else { 40000 });
+    let test_frames = args
+        .test_frames
+        .unwrap_or(if args.quick { 300 } else { 600 });
+    let scene = ScenePlan {
+        seed: args.seed,
+        camera: if ceiling { "ceiling" } else { "forward" }.into(),
+        building: 0,
+        storey: 0,
+        zone: args.zone.clone(),
+        width: 160,
+        height: 120,
+        train_variants: variants.iter().map(|v| v.to_string()).collect(),
+        walks_per_variant: walks,
+        frames_per_walk: train_frames.div_ceil(walks * variants.len()),
+        val_frames: test_frames.div_ceil(2),
+        test_frames,
+    };
+    let mut train = TrainConfig::new(data, model);
+    train.task = Some(if ceiling { Task::Pose3 } else { Task::Pose6 });
+    train.arch = Arch::Small;
+    train.view = Some(
+        args.view
+            .clone()
+            .unwrap_or_else(|| match (ceiling, args.quick) {
+                (true, _) => "gray160".into(),
+                (false, true) => "gray,resize=64x48,norm=pm1".into(),
+                (false, false) => "gray,resize=80x60,norm=pm1".into(),
+            }),
+    );
+    train.epochs = args.epochs.unwrap_or(if args.quick { 4 } else { 9 });
+    train.batch_size = 32;
+    train.lr = 2e-3;
+    train.schedule = Schedule::Cosine {
+        final_fraction: 0.02,
+    };
+    train.patience = None;
+    train.seed = args.seed;
+    train.resume = true;
+    Setup { scene, train }
+}
+
+/// One test frame's result.
+#[derive(Clone, Debug)]
+pub struct FrameResult {
+    /// Index into the dataset's frames.
+    pub index: usize,
+    /// Ground truth.
+    pub truth: Pose,
+    /// The estimate with its uncertainty.
+    pub estimate: Estimate,
+    /// Position error, metres (planar for the ceiling camera).
+    pub pos_err_m: f64,
+    /// Rotation error, degrees (heading error for the ceiling camera).
+    pub rot_err_deg: f64,
+}
+
+/// What uncertainty says about error.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct UncertaintyFigures {
+    /// Pearson R between `sigma_pos_m` and the position error.
+    pub pearson_r: f64,
+    /// Median error of the 10 % of frames with the largest sigma, metres.
+    pub top10_median_m: f64,
+    /// Median error of the other 90 %, metres.
+    pub rest_median_m: f64,
+}
+
+impl UncertaintyFigures {
+    fn of(results: &[FrameResult]) -> Result<UncertaintyFigures> {
+        let sigma: Vec<f64> = results.iter().map(|r| r.estimate.sigma_pos_m).collect();
+        let err: Vec<f64> = results.iter().map(|r| r.pos_err_m).collect();
+        let mut order: Vec<usize> = (0..results.len()).collect();
+        order.sort_by(|&a, &b| sigma[b].total_cmp(&sigma[a]));
+        let top = (results.len() / 10).max(1);
+        let pick =
+            |idx: &[usize]| crate::output::median(&idx.iter().map(|&i| err[i]).collect::<Vec<_>>());
+        Ok(UncertaintyFigures {
+            pearson_r: pearson(&sigma, &err).context("uncertainty against error")?,
+            top10_median_m: pick(&order[..top]),
+            rest_median_m: pick(&order[top..]),
+        })
+    }
+}
+
+/// The `--json` document (and the figures of the report).
+#[derive(Debug, Serialize)]
+pub struct DemoOutput {
+    /// The report page.
+    pub report: PathBuf,
+    /// The trained model.
+    pub model: PathBuf,
+    /// `pose6` or `pose3`.
+    pub task: String,
+    /// Training / validation / test frames.
+    pub frames: [usize; 3],
+    /// Median position error on the test walk, metres.
+    pub median_pos_m: f64,
+    /// Median rotation (heading) error on the test walk, degrees.
+    pub median_rot_deg: f64,
+    /// Mean position error, metres.
+    pub mean_pos_m: f64,
+    /// Share of test frames within (0.25 m, 2°), (0.5 m, 5°), (5 m, 10°).
+    pub accuracy: Vec<(f64, f64, f64)>,
+    /// Uncertainty against error.
+    pub uncertainty: UncertaintyFigures,
+    /// Seconds spent rendering, training, localizing and reporting.
+    pub seconds: StageSeconds,
+    /// True when the frames of an earlier run with the same plan were reused.
+    pub reused_frames: bool,
+    /// Epochs trained and the epoch kept.
+    pub epochs: [usize; 2],
+}
+
+/// Wall-clock seconds per stage.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct StageSeconds {
+    /// Rendering the dataset (0 when reused).
+    pub render: f64,
+    /// Training (including loading the views).
+    pub train: f64,
+    /// Localizing the test walk.
+    pub localize: f64,
+    /// Evaluation and report.
+    pub report: f64,
+    /// Everything.
+    pub total: f64,
+}
+
+/// Runs `indoorloc demo`.
+pub fn run(args: &DemoArgs) -> Result<()> {
+    let start = Instant::now();
+    let (data_dir, model_dir) = (args.out.join("data"), args.out.join("model"));
+    let setup = setup(args, &data_dir, &model_dir);
+    let mut seconds = StageSeconds::default();
+    let say = |text: &str| {
+        if !args.json {
+            eprintln!("{text}");
+        }
+    };
+
+    say(&format!(
+        "1/4 rendering {} frames of building {} storey {} ({} camera, {}x{}) into {}",
+        setup.scene.total_frames(),
+        setup.scene.building,
+        setup.scene.storey,
+        setup.scene.camera,
+        setup.scene.width,
+        setup.scene.height,
+        data_dir.display()
+    ));
+    let t = Instant::now();
+    let pb = bar(setup.scene.total_frames() as u64, "render");
+    let rendered = scene::render(&setup.scene, &data_dir, &|n| pb.set_position(n as u64))?;
+    pb.finish_and_clear();
+    seconds.render = t.elapsed().as_secs_f64();
+    if !rendered {
+        say("    (reusing the frames rendered by an earlier run)");
+    }
+
+    say(&format!("2/4 training into {}", model_dir.display()));
+    let t = Instant::now();
+    let summary = train_with_progress(&setup.train, !args.json)?;
+    seconds.train = t.elapsed().as_secs_f64();
+
+    say("3/4 localizing the held-out test walk");
+    let t = Instant::now();
+    let results = localize_test(&data_dir, &model_dir, args.mc)?;
+    seconds.localize = t.elapsed().as_secs_f64();
+
+    say("4/4 evaluating and writing the report");
+    let t = Instant::now();
+    let ds = NativeDataset::open(&data_dir)?;
+    let task = summary_task(&setup);
+    let uncertainty = UncertaintyFigures::of(&results)?;
+    let eval = Evaluation::of(&results, task)?;
+    let report_dir = args.out.join("report");
+    let report = page::write(
+        &report_dir,
+        &page::PageInput {
+            scene: &setup.scene,
+            dataset: &ds,
+            results: &results,
+            eval: &eval,
+            uncertainty: &uncertainty,
+            summary: &summary,
+        },
+    )?;
+    seconds.report = t.elapsed().as_secs_f64();
+    seconds.total = start.elapsed().as_secs_f64();
+
+    let out = DemoOutput {
+        report,
+        model: model_dir,
+        task: task.to_string(),
+        frames: [summary.train_frames, summary.val_frames, results.len()],
+        median_pos_m: eval.pos_median,
+        median_rot_deg: eval.rot_median,
+        mean_pos_m: eval.pos_mean,
+        accuracy: eval.accuracy.clone(),
+        uncertainty,
+        seconds,
+        reused_frames: !rendered,
+        epochs: [summary.epochs, summary.best_epoch],
+    };
+    if args.json {
+        print_json(&out)
+    } else {
+        print_text(&human_text(&out, task))
+    }
+}
+
+fn summary_task(setup: &Setup) -> Task {
+    setup.train.task.unwrap_or(Task::Pose6)
+}
+
+/// The test walk's frames through the model, with errors.
+fn localize_test(data_dir: &Path, model_dir: &Path, mc: usize) -> Result<Vec<FrameResult>> {
+    let ds = NativeDataset::open(data_dir)?;
+    let loc = Localizer::load(model_dir)?;
+    let index = ds.split_frames(SplitName::Test);
+    let views = index
+        .par_iter()
+        .map(|&i| {
+            let path = ds.frame_path(ds.frame_number(i).unwrap_or(i as u64));
+            let img = data::frames::decode_image(&path)?;
+            loc.view(&img)
+                .with_context(|| format!("{}: cannot make the view", path.display()))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let estimates = loc.predict_batch(&views, mc)?;
+    let pose3 = loc.meta().coding.task == Task::Pose3;
+    let mount = ds.info.mount;
+    Ok(index
+        .into_iter()
+        .zip(estimates)
+        .map(|(i, estimate)| {
+            let truth = ds.trajectory.frames[i].pose;
+            let (pos_err_m, rot_err_deg) = if pose3 {
+                let (g, e): (Pose3, Pose3) = (truth.to_pose3(mount), estimate.pose.to_pose3(mount));
+                (
+                    (g.x - e.x).hypot(g.y - e.y),
+                    geom::metrics::heading_error(g.heading, e.heading).to_degrees(),
+                )
+            } else {
+                (
+                    geom::metrics::position_error(&truth, &estimate.pose),
+                    geom::metrics::rotation_error_deg(&truth, &estimate.pose),
+                )
+            };
+            FrameResult {
+                index: i,
+                truth,
+                estimate,
+                pos_err_m,
+                rot_err_deg,
+            }
+        })
+        .collect())
+}
+
+/// The headline figures of the test walk, for either task.
+pub struct Evaluation {
+    /// Median position error, metres.
+    pub pos_median: f64,
+    /// Mean position error, metres.
+    pub pos_mean: f64,
+    /// Median rotation (heading) error, degrees.
+    pub rot_median: f64,
+    /// `(max_m, max_deg, fraction)` per accuracy threshold.
+    pub accuracy: Vec<(f64, f64, f64)>,
+    /// The summary table.
+    pub table: report::Table,
+}
+
+impl Evaluation {
+    fn of(results: &[FrameResult], task: Task) -> Result<Evaluation> {
+        let truth: Vec<Pose> = results.iter().map(|r| r.truth).collect();
+        let est: Vec<Pose> = results.iter().map(|r| r.estimate.pose).collect();
+        if task == Task::Pose3 {
+            let mount = geom::Mount::Ceiling;
+            let g: Vec<Pose3> = truth.iter().map(|p| p.to_pose3(mount)).collect();
+            let e: Vec<Pose3> = est.iter().map(|p| p.to_pose3(mount)).collect();
+            let ev = Pose3Evaluation::of(&g, &e)?;
+            let mut table = report::Table::new("Test walk (x, y, heading)", ["metric", "value"]);
+            table.push_row(["frames".to_string(), ev.position.count.to_string()]);
+            table.push_row([
+                "median position error".into(),
+                format!("{:.3} m", ev.position.median),
+            ]);
+            table.push_row([
+                "mean position error".into(),
+                format!("{:.3} m", ev.position.mean),
+            ]);
+            table.push_row([
+                "RMSE position error".into(),
+                format!("{:.3} m", ev.position.rmse),
+            ]);
+            table.push_row([
+                "median heading error".into(),
+                format!(
+                    "{:.2}° ({:.3} rad)",
+                    ev.heading_deg.median,
+                    ev.heading_deg.median.to_radians()
+                ),
+            ]);
+            table.push_row([
+                "mean heading error".into(),
+                format!("{:.2}°", ev.heading_deg.mean),
+            ]);
+            for a in &ev.accuracy {
+                table.push_row([
+                    format!("accuracy ({} m, {}°)", a.max_m, a.max_deg),
+                    format!("{:.1} %", 100.0 * a.fraction),
+                ]);
+            }
+            Ok(Evaluation {
+                pos_median: ev.position.median,
+                pos_mean: ev.position.mean,
+                rot_median: ev.heading_deg.median,
+                accuracy: ev
+                    .accuracy
+                    .iter()
+                    .map(|a| (a.max_m, a.max_deg, a.fraction))
+                    .collect(),
+                table,
+            })
+        } else {
+            let ev = PoseEvaluation::of(&truth, &est)?;
+            Ok(Evaluation {
+                pos_median: ev.position.median,
+                pos_mean: ev.position.mean,
+                rot_median: ev.rotation_deg.median,
+                accuracy: ev
+                    .accuracy
+                    .iter()
+                    .map(|a| (a.max_m, a.max_deg, a.fraction))
+                    .collect(),
+                table: report::pose_summary_table(&ev),
+            })
+        }
+    }
+}
+
+fn human_text(o: &DemoOutput, task: Task) -> String {
+    let angle = if task == Task::Pose3 {
+        "heading"
+    } else {
+        "rotation"
+    };
+    let mut s = format!(
+        "test walk   {} frames ({} training, {} validation)\n\
+         median      {:.3} m, {:.2}° {angle}\n\
+         mean        {:.3} m\n",
+        o.frames[2], o.frames[0], o.frames[1], o.median_pos_m, o.median_rot_deg, o.mean_pos_m
+    );
+    for (m, d, f) in &o.accuracy {
+        s += &format!("accuracy    {:>5.1} % within ({m} m, {d}°)\n", 100.0 * f);
+    }
+    s += &format!(
+        "uncertainty R = {:.2}; top 10 % sigma: median error {:.3} m vs {:.3} m for the rest\n\
+         time        {:.0} s (render {:.0}, train {:.0}, localize {:.1}, report {:.1})\n\
+         report      {}\n",
+        o.uncertainty.pearson_r,
+        o.uncertainty.top10_median_m,
+        o.uncertainty.rest_median_m,
+        o.seconds.total,
+        o.seconds.render,
+        o.seconds.train,
+        o.seconds.localize,
+        o.seconds.report,
+        o.report.display()
+    );
+    s
+}

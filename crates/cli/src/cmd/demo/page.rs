@@ -1,0 +1,206 @@
+//! The demo's report: one self-contained HTML page (`report.html`) plus the figures as PNG and
+//! SVG beside it, so a person sees at a glance how well the network localizes the test walk.
+
+use super::scene::{self, ScenePlan};
+use super::{Evaluation, FrameResult, UncertaintyFigures};
+use anyhow::{Context, Result};
+use data::native::NativeDataset;
+use learn::TrainSummary;
+use report::{ErrorCdf, Figure, HtmlReport, Series, Tile, TopDown, Track};
+use std::path::{Path, PathBuf};
+use synth::Variant;
+use synth::render::{RenderMode, RenderOptions, RenderScene, Renderer};
+
+/// What the page shows.
+pub struct PageInput<'a> {
+    /// The rendered scene.
+    pub scene: &'a ScenePlan,
+    /// The dataset (for the test images).
+    pub dataset: &'a NativeDataset,
+    /// Per test frame results.
+    pub results: &'a [FrameResult],
+    /// Headline figures.
+    pub eval: &'a Evaluation,
+    /// Uncertainty against error.
+    pub uncertainty: &'a UncertaintyFigures,
+    /// How training went.
+    pub summary: &'a TrainSummary,
+}
+
+/// Writes `report.html` and the figures into `dir`; returns the page's path.
+pub fn write(dir: &Path, input: &PageInput) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let r = input.results;
+    let ceiling = input.scene.camera == "ceiling";
+    let angle = if ceiling { "heading" } else { "rotation" };
+    let mut page = HtmlReport::new("indoorloc demo");
+    page.subtitle(format!(
+        "Default building, building {} storey {}: a network trained on {} rendered frames \
+         ({} camera, appearance variants {}) localizes a held-out walk of {} frames.",
+        input.scene.building,
+        input.scene.storey,
+        input.summary.train_frames,
+        input.scene.camera,
+        input.scene.train_variants.join(", "),
+        r.len()
+    ));
+    page.highlights([
+        (
+            "median position error".to_string(),
+            format!("{:.3} m", input.eval.pos_median),
+        ),
+        (
+            format!("median {angle} error"),
+            format!("{:.2}°", input.eval.rot_median),
+        ),
+        (
+            "uncertainty–error R".to_string(),
+            format!("{:.2}", input.uncertainty.pearson_r),
+        ),
+    ]);
+    page.table(&input.eval.table);
+
+    let pos = vec![Series::new("test walk", errors(r, |f| f.pos_err_m))];
+    let rot = vec![Series::new("test walk", errors(r, |f| f.rot_err_deg))];
+    let cdf: Figure = ErrorCdf {
+        title: "Cumulative error distribution".into(),
+        position_m: pos,
+        rotation_deg: rot,
+        thresholds_m: vec![0.25, 0.5],
+        thresholds_deg: vec![2.0, 5.0],
+    }
+    .into();
+    figure(
+        &mut page,
+        dir,
+        "cdf",
+        &cdf,
+        "Share of test frames whose error is at most x.",
+    )?;
+
+    let truth: Vec<[f64; 2]> = r.iter().map(|f| xy(&f.truth)).collect();
+    let est: Vec<[f64; 2]> = r.iter().map(|f| xy(&f.estimate.pose)).collect();
+    let map: Figure = TopDown {
+        title: "Test walk seen from above".into(),
+        ground_truth: truth,
+        estimates: vec![Track::new("estimate", est)],
+        links: true,
+    }
+    .into();
+    figure(
+        &mut page,
+        dir,
+        "trajectory",
+        &map,
+        "Ground truth and estimates, each estimate linked to its true position.",
+    )?;
+
+    page.section("Uncertainty");
+    page.paragraph(format!(
+        "Monte-Carlo dropout ({} passes per frame) gives each estimate a spread. Pearson R \
+         between that spread (sigma_pos_m) and the position error: {:.2}. The 10 % of frames \
+         with the largest spread have a median error of {:.3} m, the rest {:.3} m.",
+        r.first().map_or(0, |f| f.estimate.passes),
+        input.uncertainty.pearson_r,
+        input.uncertainty.top10_median_m,
+        input.uncertainty.rest_median_m
+    ));
+
+    page.section("Frames");
+    let sheet = frames_sheet(input)?;
+    report::write_atomic(&dir.join("frames.png"), &sheet)?;
+    page.png(
+        &sheet,
+        "Test frames (left) beside the building rendered from the estimated pose (right), at \
+         the best, median and worst errors.",
+    );
+
+    page.section("Training");
+    let mut t = report::Table::new(
+        "Epochs",
+        ["epoch", "loss", "val median m", "val median °", "seconds"],
+    );
+    for m in &input.summary.history {
+        t.push_row([
+            m.epoch.to_string(),
+            format!("{:.4}", m.train_loss),
+            format!("{:.3}", m.val_median_pos_m),
+            format!("{:.2}", m.val_median_rot_deg),
+            format!("{:.1}", m.seconds),
+        ]);
+    }
+    page.table(&t);
+    let path = dir.join("report.html");
+    page.write(&path)?;
+    Ok(path)
+}
+
+fn errors(r: &[FrameResult], f: impl Fn(&FrameResult) -> f64) -> Vec<f64> {
+    r.iter().map(f).collect()
+}
+
+fn xy(p: &geom::Pose) -> [f64; 2] {
+    [p.translation.x, p.translation.y]
+}
+
+/// Adds `fig` to the page and saves it as `stem.png` / `stem.svg`.
+fn figure(
+    page: &mut HtmlReport,
+    dir: &Path,
+    stem: &str,
+    fig: &Figure,
+    caption: &str,
+) -> Result<()> {
+    fig.save_both(dir, stem)?;
+    page.figure(fig, caption)?;
+    Ok(())
+}
+
+/// Pairs of (test frame, render from its estimate) at the smallest, median and largest errors.
+fn frames_sheet(input: &PageInput) -> Result<Vec<u8>> {
+    let r = input.results;
+    let mut order: Vec<usize> = (0..r.len()).collect();
+    order.sort_by(|&a, &b| r[a].pos_err_m.total_cmp(&r[b].pos_err_m));
+    let picks = [
+        0,
+        order.len() / 4,
+        order.len() / 2,
+        3 * order.len() / 4,
+        order.len() - 1,
+    ];
+    let world = scene::world(input.scene, Variant::Normal)?;
+    let scene = RenderScene::new(&world)?;
+    let camera = scene::camera(input.scene)?;
+    let mut renderer = Renderer::new();
+    let opts = RenderOptions {
+        mode: RenderMode::Textured,
+        ..RenderOptions::default()
+    };
+    let mut tiles = Vec::new();
+    for &k in &picks {
+        let f = &r[order[k]];
+        let number = input
+            .dataset
+            .frame_number(f.index)
+            .unwrap_or(f.index as u64);
+        let path = input.dataset.frame_path(number);
+        let photo = data::frames::decode_image(&path)?.to_rgb8();
+        let guess = renderer
+            .render(&scene, &camera, &f.estimate.pose, &opts, &[])?
+            .rgb
+            .clone();
+        tiles.push(Tile {
+            label: format!("frame {number}"),
+            image: photo,
+        });
+        tiles.push(Tile {
+            label: format!("estimate: {:.2} m, {:.1}°", f.pos_err_m, f.rot_err_deg),
+            image: guess,
+        });
+    }
+    Ok(report::contact_sheet(
+        "Test frames and renders from their estimates",
+        &tiles,
+        4,
+    )?)
+}

@@ -1,0 +1,292 @@
+//! The demo's dataset: walks through one storey of the built-in building, rendered under
+//! several appearance variants for training, one more walk for validation and a held-out walk
+//! for the test, all written as one native dataset whose `splits.toml` names the three parts.
+//!
+//! Walks stay on one storey (a zone) so that a few minutes of rendering and training cover the
+//! places the test walk passes; the layout is the same under every variant, only the
+//! appearance changes, which is what the network has to learn to ignore.
+
+use anyhow::{Context, Result};
+use data::native::{self, DatasetInfo, Generator, Splits};
+use data::{PoseFrame, Trajectory};
+use geom::Mount;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use synth::dataset::{CameraKind, SynthConfig, WorldSource, encode_rgb};
+use synth::render::{RenderMode, RenderOptions, RenderScene, Renderer};
+use synth::trajectory::{self, PosedFrame, Rig, WalkConfig};
+use synth::{PlaceKind, Variant, World};
+
+/// What the demo renders. Stored beside the dataset (`demo-plan.toml`) so a second run with the
+/// same plan reuses the images instead of rendering them again.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ScenePlan {
+    /// Layout seed of the building and seed of the walks.
+    pub seed: u64,
+    /// `forward` (6-DoF) or `ceiling` (3-DoF).
+    pub camera: String,
+    /// Building index of the zone.
+    pub building: u8,
+    /// Storey index of the zone.
+    pub storey: u8,
+    /// `corridor`: the storey's corridors only; `storey`: the whole storey, rooms and lobby too.
+    pub zone: String,
+    /// Rendered image width, pixels.
+    pub width: u32,
+    /// Rendered image height, pixels.
+    pub height: u32,
+    /// Appearance variants of the training walks (names as `synth --variant` takes them).
+    pub train_variants: Vec<String>,
+    /// Training walks per variant.
+    pub walks_per_variant: usize,
+    /// Frames per training walk.
+    pub frames_per_walk: usize,
+    /// Frames of the validation walk (normal appearance).
+    pub val_frames: usize,
+    /// Frames of the held-out test walk (normal appearance).
+    pub test_frames: usize,
+}
+
+/// Name of the plan file in the dataset folder.
+pub const PLAN_TOML: &str = "demo-plan.toml";
+/// The test sequence's name.
+pub const TEST_SEQ: &str = "test";
+
+impl ScenePlan {
+    fn camera_kind(&self) -> CameraKind {
+        if self.camera == "ceiling" {
+            CameraKind::Ceiling
+        } else {
+            CameraKind::Forward
+        }
+    }
+
+    fn variants(&self) -> Result<Vec<Variant>> {
+        self.train_variants
+            .iter()
+            .map(|v| {
+                v.parse::<Variant>()
+                    .map_err(|e| anyhow::anyhow!("variant '{v}': {e}"))
+            })
+            .collect()
+    }
+
+    /// Frames the dataset will hold.
+    pub fn total_frames(&self) -> usize {
+        self.train_variants.len() * self.walks_per_variant * self.frames_per_walk
+            + self.val_frames
+            + self.test_frames
+    }
+}
+
+/// One sequence to render.
+struct Sequence {
+    name: String,
+    variant: Variant,
+    frames: Vec<PosedFrame>,
+}
+
+/// The building of the plan under `variant`, with the variant's changes applied.
+pub fn world(plan: &ScenePlan, variant: Variant) -> Result<World> {
+    let cfg = SynthConfig {
+        world: WorldSource::Default { seed: plan.seed },
+        variant,
+        seed: plan.seed,
+        ..SynthConfig::default()
+    };
+    Ok(synth::dataset::build_world(&cfg)?.0)
+}
+
+/// The zone as its own world for walking: the building with the walk graph cut to the zone.
+fn zone_world(plan: &ScenePlan) -> Result<World> {
+    let mut world = world(plan, Variant::Normal)?;
+    let walk = world.walk.within(&world.regions, |p| {
+        p.building == plan.building
+            && p.storey == plan.storey
+            && (plan.zone == "storey" || p.kind == PlaceKind::Corridor)
+    });
+    anyhow::ensure!(
+        !walk.edges.is_empty(),
+        "the default building has no walkable {} on storey {} of building {}",
+        plan.zone,
+        plan.storey,
+        plan.building
+    );
+    world.walk = walk;
+    Ok(world)
+}
+
+fn rig(plan: &ScenePlan) -> Rig {
+    synth::dataset::rig_of(plan.camera_kind())
+}
+
+/// Walks of every sequence: training walks (per variant), the validation walk, the test walk.
+fn sequences(plan: &ScenePlan) -> Result<Vec<Sequence>> {
+    let zone = zone_world(plan)?;
+    let cfg = WalkConfig::for_rig(rig(plan));
+    let walk = |frames: usize, k: u64| trajectory::walk(&zone, &cfg, frames, plan.seed * 1000 + k);
+    let mut seqs = Vec::new();
+    for (v, variant) in plan.variants()?.into_iter().enumerate() {
+        for w in 0..plan.walks_per_variant {
+            seqs.push(Sequence {
+                name: format!("train-{}-{w}", variant.name()),
+                variant,
+                frames: walk(plan.frames_per_walk, (v * 100 + w) as u64)?,
+            });
+        }
+    }
+    seqs.push(Sequence {
+        name: "val".into(),
+        variant: Variant::Normal,
+        frames: walk(plan.val_frames, 900)?,
+    });
+    seqs.push(Sequence {
+        name: TEST_SEQ.into(),
+        variant: Variant::Normal,
+        frames: walk(plan.test_frames, 901)?,
+    });
+    Ok(seqs)
+}
+
+/// The camera of every sequence: one phone (or one robot camera) for the whole demo.
+pub fn camera(plan: &ScenePlan) -> Result<geom::Camera> {
+    Ok(trajectory::camera_for(
+        &rig(plan),
+        plan.width,
+        plan.height,
+        plan.seed,
+    )?)
+}
+
+/// Renders the dataset of `plan` into `dir` unless `dir` already holds it (same plan file);
+/// `progress` gets the frames done so far. Returns true when it rendered.
+pub fn render(plan: &ScenePlan, dir: &Path, progress: &(dyn Fn(usize) + Sync)) -> Result<bool> {
+    let plan_path = dir.join(PLAN_TOML);
+    let plan_text = toml::to_string(plan).context("cannot write the demo plan")?;
+    let done = std::fs::read_to_string(&plan_path).is_ok_and(|t| t == plan_text)
+        && dir.join(native::POSES_CSV).is_file();
+    if done {
+        return Ok(false);
+    }
+    let frames_dir = dir.join("frames");
+    std::fs::create_dir_all(&frames_dir)
+        .with_context(|| format!("cannot create {}", frames_dir.display()))?;
+    let seqs = sequences(plan)?;
+    let camera = camera(plan)?;
+    let counter = AtomicUsize::new(0);
+    let mut first = 0;
+    let mut starts = Vec::new();
+    for s in &seqs {
+        starts.push(first);
+        first += s.frames.len();
+    }
+    let mut variants: Vec<Variant> = seqs.iter().map(|s| s.variant).collect();
+    variants.dedup();
+    variants.sort_by_key(|v| v.name());
+    variants.dedup();
+    for variant in variants {
+        let todo: Vec<(usize, &Sequence)> = seqs
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.variant == variant)
+            .map(|(i, s)| (starts[i], s))
+            .collect();
+        let world = world(plan, variant)?;
+        let scene = RenderScene::new(&world)?;
+        let shots: Vec<(usize, &PosedFrame)> = todo
+            .iter()
+            .flat_map(|(start, s)| {
+                s.frames
+                    .iter()
+                    .enumerate()
+                    .map(move |(k, f)| (start + k, f))
+            })
+            .collect();
+        shots.par_iter().try_for_each_init(
+            Renderer::new,
+            |renderer, &(index, frame)| -> Result<()> {
+                let opts = RenderOptions {
+                    mode: RenderMode::Textured,
+                    seed: plan.seed.wrapping_mul(1_000_003).wrapping_add(index as u64),
+                    ..RenderOptions::default()
+                };
+                let img = renderer.render(&scene, &camera, &frame.pose, &opts, &[])?;
+                let png = encode_rgb(&img.rgb)?;
+                let path = frames_dir.join(format!("{}.png", native::frame_name(index as u64)));
+                data::io::write_atomic(&path, |w| w.write_all(&png))
+                    .with_context(|| format!("cannot write {}", path.display()))?;
+                progress(counter.fetch_add(1, Ordering::Relaxed) + 1);
+                Ok(())
+            },
+        )?;
+    }
+    write_metadata(plan, dir, &seqs, &camera)?;
+    data::io::write_atomic(&plan_path, |w| w.write_all(plan_text.as_bytes()))
+        .with_context(|| format!("cannot write {}", plan_path.display()))?;
+    Ok(true)
+}
+
+/// `dataset.toml`, `poses.csv`, `labels.csv` and `splits.toml` of the rendered sequences.
+fn write_metadata(
+    plan: &ScenePlan,
+    dir: &Path,
+    seqs: &[Sequence],
+    camera: &geom::Camera,
+) -> Result<()> {
+    let mut frames = Vec::new();
+    for s in seqs {
+        for f in &s.frames {
+            frames.push(PoseFrame {
+                name: native::frame_name(frames.len() as u64),
+                seq: s.name.clone(),
+                t: Some(f.t),
+                pose: f.pose,
+            });
+        }
+    }
+    let names = |prefix: &str| -> Vec<String> {
+        seqs.iter()
+            .filter(|s| s.name.starts_with(prefix))
+            .map(|s| s.name.clone())
+            .collect()
+    };
+    let splits = Splits {
+        train: names("train-"),
+        val: names("val"),
+        test: names(TEST_SEQ),
+    };
+    let mut settings = BTreeMap::new();
+    settings.insert(
+        "zone".into(),
+        format!("building {} storey {}", plan.building, plan.storey),
+    );
+    settings.insert("mode".into(), RenderMode::Textured.to_string());
+    settings.insert("train_variants".into(), plan.train_variants.join(","));
+    let ceiling = plan.camera_kind() == CameraKind::Ceiling;
+    let info = DatasetInfo {
+        name: format!(
+            "indoorloc demo: default building, building {} storey {}",
+            plan.building, plan.storey
+        ),
+        dof: if ceiling { 3 } else { 6 },
+        units: "m".into(),
+        frame_rate: WalkConfig::for_rig(rig(plan)).fps,
+        mount: if ceiling {
+            Mount::Ceiling
+        } else {
+            Mount::Forward
+        },
+        camera: native::CameraInfo::from_camera(camera),
+        generator: Some(Generator {
+            name: format!("indoorloc demo {}", env!("CARGO_PKG_VERSION")),
+            seed: Some(plan.seed),
+            source: None,
+            settings,
+        }),
+    };
+    native::write_metadata(dir, &info, &Trajectory::new(frames), None, None, &splits)?;
+    Ok(())
+}
