@@ -9,6 +9,8 @@ pub(crate) const MAX_CDF_POINTS: usize = 2000;
 pub(crate) const MAX_TIME_BUCKETS: usize = 1200;
 /// At most this many points per trajectory (uniform stride, the last point always kept).
 pub(crate) const MAX_TRACK_POINTS: usize = 4000;
+/// At most this many points in a scatter plot (uniform stride); more only darken the cloud.
+pub(crate) const MAX_SCATTER_POINTS: usize = 5000;
 /// At most this many error links (ground truth → estimate) in a top-down plot.
 pub(crate) const MAX_LINKS: usize = 600;
 

@@ -1,9 +1,11 @@
 //! The drawing code shared by the PNG and SVG backends.
 
+use crate::errmap::{ErrorMap, ErrorMapPlot, error_map_view};
 use crate::figure::{
     CdfPlot, Curve, Ends, Panel, Plot, TimePlot, TopDown, TopDownPlot, padded, top_down_view,
 };
 use crate::font::FONT;
+use crate::scatter::ScatterPlot;
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
@@ -26,6 +28,10 @@ const THRESHOLD: RGBColor = RGBColor(140, 144, 150);
 const GROUND_TRUTH: RGBColor = RGBColor(45, 45, 45);
 const MARKER: RGBColor = RGBColor(170, 30, 140);
 const LINK: RGBColor = RGBColor(214, 39, 40);
+/// The ground truth under an error map: thin and grey, so the coloured dots carry the figure.
+const PATH: RGBColor = RGBColor(150, 150, 150);
+const FLOOR_FILL: RGBColor = RGBColor(246, 246, 243);
+const FLOOR_EDGE: RGBColor = RGBColor(196, 198, 202);
 
 /// Tableau 10: distinct, colour-blind-friendlier than the plotters defaults.
 const PALETTE: [RGBColor; 10] = [
@@ -45,15 +51,33 @@ const PALETTE: [RGBColor; 10] = [
 pub(crate) const TOP_DOWN_WIDTH: u32 = 1000;
 /// Pixels of a top-down figure outside its plotting area: (horizontal, vertical).
 const TOP_DOWN_CHROME: (f64, f64) = (110.0, 155.0);
+/// Width of an error map's colour bar strip (bar, ticks and axis title), pixels.
+const COLOR_BAR_W: i32 = 120;
 
 /// Height that gives a top-down figure's view an equal-aspect plot with little white space,
 /// between 420 and 1100 pixels.
 pub(crate) fn top_down_height(f: &TopDown) -> u32 {
-    let Some(b) = top_down_view(f).map(padded) else {
+    equal_aspect_height(top_down_view(f), TOP_DOWN_CHROME)
+}
+
+/// Height of an error map: as a top-down figure's, with the colour bar taking width from the
+/// map.
+pub(crate) fn error_map_height(f: &ErrorMap) -> u32 {
+    let chrome = (
+        TOP_DOWN_CHROME.0 + f64::from(COLOR_BAR_W),
+        TOP_DOWN_CHROME.1,
+    );
+    equal_aspect_height(error_map_view(f), chrome)
+}
+
+/// Height at [`TOP_DOWN_WIDTH`] that fits `view` (before padding) with equal metres per pixel,
+/// given the pixels outside the plotting area, between 420 and 1100 pixels.
+fn equal_aspect_height(view: Option<[f64; 4]>, chrome: (f64, f64)) -> u32 {
+    let Some(b) = view.map(padded) else {
         return TOP_DOWN_WIDTH;
     };
-    let plot_w = f64::from(TOP_DOWN_WIDTH) - TOP_DOWN_CHROME.0;
-    let h = plot_w * (b[3] - b[2]) / (b[1] - b[0]) + TOP_DOWN_CHROME.1;
+    let plot_w = f64::from(TOP_DOWN_WIDTH) - chrome.0;
+    let h = plot_w * (b[3] - b[2]) / (b[1] - b[0]) + chrome.1;
     if h.is_finite() {
         h.clamp(420.0, 1100.0) as u32
     } else {
@@ -77,6 +101,8 @@ where
         Plot::Cdf(p) => draw_cdf(root, p, bitmap),
         Plot::Time(p) => draw_time(root, p, bitmap),
         Plot::TopDown(p) => draw_top_down(root, p, bitmap),
+        Plot::ErrorMap(p) => draw_error_map(root, p),
+        Plot::Scatter(p) => draw_scatter(root, p),
     }
 }
 
@@ -295,22 +321,8 @@ where
     }
     let (y0, y1) = p.y_range;
     let mut chart = builder.build_cartesian_2d(x0..x1, y0..y1)?;
-    let fx = |v: &f64| tick(*v, x1 - x0);
-    let fy = |v: &f64| tick(*v, y1 - y0);
-    chart
-        .configure_mesh()
-        .light_line_style(TRANSPARENT)
-        .bold_line_style(GRID)
-        .axis_style(AXIS)
-        .x_desc(p.x_desc.as_str())
-        .y_desc(p.y_desc.as_str())
-        .axis_desc_style((FONT, AXIS_DESC_PX).into_font().color(&TEXT))
-        .label_style((FONT, TICK_PX).into_font().color(&TEXT))
-        .x_labels(9)
-        .y_labels(7)
-        .x_label_formatter(&fx)
-        .y_label_formatter(&fy)
-        .draw()?;
+    let descs = (p.x_desc.as_str(), p.y_desc.as_str());
+    draw_mesh(&mut chart, descs, (9, 7), (x1 - x0, y1 - y0))?;
 
     let mut labelled = false;
     for ((t, label), dy) in p.thresholds.iter().zip(&dys) {
@@ -345,6 +357,36 @@ where
 }
 
 type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Grid, axes and their titles in the report's style; `labels` ticks on (x, y), each axis's
+/// ticks with the decimals its `spans` (x, y) need.
+fn draw_mesh<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    (x_desc, y_desc): (&str, &str),
+    labels: (usize, usize),
+    spans: (f64, f64),
+) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    let fx = |v: &f64| tick(*v, spans.0);
+    let fy = |v: &f64| tick(*v, spans.1);
+    chart
+        .configure_mesh()
+        .light_line_style(TRANSPARENT)
+        .bold_line_style(GRID)
+        .axis_style(AXIS)
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .axis_desc_style((FONT, AXIS_DESC_PX).into_font().color(&TEXT))
+        .label_style((FONT, TICK_PX).into_font().color(&TEXT))
+        .x_labels(labels.0)
+        .y_labels(labels.1)
+        .x_label_formatter(&fx)
+        .y_label_formatter(&fy)
+        .draw()?;
+    Ok(())
+}
 
 /// Draws every segment of a curve, labelling the first; true when it added a legend entry.
 fn draw_curve<'a, DB: DrawingBackend + 'a>(
@@ -421,6 +463,39 @@ fn top_down_builder<'a, 'b, DB: DrawingBackend>(
     builder
 }
 
+/// A chart on `area` that shows at least `b` = `[x0, x1, y0, y1]` with equal metres per pixel
+/// on x and y, with its grid and axes drawn; the x axis title says how many of the estimates
+/// lie `outside` the view.
+fn map_chart<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    b: [f64; 4],
+    outside: usize,
+) -> DrawResult<Chart<'a, DB>>
+where
+    DB::ErrorType: 'static,
+{
+    // build once to measure the plotting area, then again with the view widened to its aspect
+    let (w, h) = top_down_builder(area)
+        .build_cartesian_2d(0.0..1.0, 0.0..1.0)?
+        .plotting_area()
+        .dim_in_pixel();
+    let (sx, sy) = (b[1] - b[0], b[3] - b[2]);
+    let (w, h) = (f64::from(w.max(1)), f64::from(h.max(1)));
+    let metres_per_px = (sx / w).max(sy / h);
+    let (cx, cy) = ((b[0] + b[1]) / 2.0, (b[2] + b[3]) / 2.0);
+    let (hx, hy) = (metres_per_px * w / 2.0, metres_per_px * h / 2.0);
+    let (x0, x1, y0, y1) = (cx - hx, cx + hx, cy - hy, cy + hy);
+    let mut chart = top_down_builder(area).build_cartesian_2d(x0..x1, y0..y1)?;
+    let span = (x1 - x0).max(y1 - y0);
+    let x_desc = match outside {
+        0 => "x (m)".to_string(),
+        1 => "x (m)   (1 estimated position lies outside the view)".to_string(),
+        n => format!("x (m)   ({n} estimated positions lie outside the view)"),
+    };
+    draw_mesh(&mut chart, (&x_desc, "y (m)"), (10, 10), (span, span))?;
+    Ok(chart)
+}
+
 fn draw_top_down<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     p: &TopDownPlot,
@@ -448,40 +523,7 @@ where
         entries.push(("end".into(), Glyph::Square(TEXT)));
     }
     let area = legend_strip(&area, &entries)?;
-    // build once to measure the plotting area, then again with equal metres per pixel on x and y
-    let (w, h) = top_down_builder(&area)
-        .build_cartesian_2d(0.0..1.0, 0.0..1.0)?
-        .plotting_area()
-        .dim_in_pixel();
-    let b = p.bounds;
-    let (sx, sy) = (b[1] - b[0], b[3] - b[2]);
-    let (w, h) = (f64::from(w.max(1)), f64::from(h.max(1)));
-    let metres_per_px = (sx / w).max(sy / h);
-    let (cx, cy) = ((b[0] + b[1]) / 2.0, (b[2] + b[3]) / 2.0);
-    let (hx, hy) = (metres_per_px * w / 2.0, metres_per_px * h / 2.0);
-    let (x0, x1, y0, y1) = (cx - hx, cx + hx, cy - hy, cy + hy);
-    let mut chart = top_down_builder(&area).build_cartesian_2d(x0..x1, y0..y1)?;
-    let span = (x1 - x0).max(y1 - y0);
-    let fmt = |v: &f64| tick(*v, span);
-    let x_desc = match p.outside {
-        0 => "x (m)".to_string(),
-        1 => "x (m)   (1 estimated position lies outside the view)".to_string(),
-        n => format!("x (m)   ({n} estimated positions lie outside the view)"),
-    };
-    chart
-        .configure_mesh()
-        .light_line_style(TRANSPARENT)
-        .bold_line_style(GRID)
-        .axis_style(AXIS)
-        .x_desc(x_desc.as_str())
-        .y_desc("y (m)")
-        .axis_desc_style((FONT, AXIS_DESC_PX).into_font().color(&TEXT))
-        .label_style((FONT, TICK_PX).into_font().color(&TEXT))
-        .x_labels(10)
-        .y_labels(10)
-        .x_label_formatter(&fmt)
-        .y_label_formatter(&fmt)
-        .draw()?;
+    let mut chart = map_chart(&area, p.bounds, p.outside)?;
 
     if !p.links.is_empty() {
         chart.draw_series(
@@ -523,6 +565,142 @@ where
                 + Rectangle::new([(-7, -7), (7, 7)], WHITE.filled())
                 + Rectangle::new([(-5, -5), (5, 5)], c.filled())
         }))?;
+    }
+    Ok(())
+}
+
+/// The colour of an error on the error map's scale, which ends at `max`.
+fn error_color(e: f64, max: f64) -> RGBColor {
+    ViridisRGB::get_color_normalized(e.clamp(0.0, max), 0.0, max)
+}
+
+fn draw_error_map<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, p: &ErrorMapPlot) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    let area = titled(root, &p.title)?;
+    let mut entries = vec![
+        ("ground truth".to_string(), Glyph::Line(PATH.to_rgba(), 2)),
+        (p.dots_label.clone(), Glyph::Circle(error_color(0.6, 1.0))),
+    ];
+    if !p.links.is_empty() {
+        let label = "error (ground truth → estimate)";
+        entries.push((label.into(), Glyph::Line(LINK.mix(0.6), 2)));
+    }
+    if !p.rooms.is_empty() {
+        entries.push(("floor plan".into(), Glyph::Band(FLOOR_EDGE.to_rgba())));
+    }
+    let area = legend_strip(&area, &entries)?;
+    let (w, _) = area.dim_in_pixel();
+    let (map_area, bar_area) = area.split_horizontally(w as i32 - COLOR_BAR_W);
+    let mut chart = map_chart(&map_area, p.bounds, p.outside)?;
+
+    chart.draw_series(
+        p.rooms
+            .iter()
+            .map(|r| Rectangle::new([(r[0], r[2]), (r[1], r[3])], FLOOR_FILL.filled())),
+    )?;
+    chart.draw_series(
+        p.walls
+            .iter()
+            .map(|w| PathElement::new(w.clone(), FLOOR_EDGE.stroke_width(1))),
+    )?;
+    chart.draw_series(
+        p.links
+            .iter()
+            .map(|l| PathElement::new(l.to_vec(), LINK.mix(0.35).stroke_width(1))),
+    )?;
+    for seg in &p.ground_truth {
+        chart.draw_series(LineSeries::new(seg.iter().copied(), PATH.stroke_width(1)))?;
+    }
+    // a darker rim keeps the light end of the scale visible on white
+    let radius = if p.dots.len() > 1500 { 2 } else { 3 };
+    chart.draw_series(p.dots.iter().map(|&(at, e)| {
+        let c = error_color(e, p.color_max);
+        let rim = RGBColor(
+            (f64::from(c.0) * 0.7) as u8,
+            (f64::from(c.1) * 0.7) as u8,
+            (f64::from(c.2) * 0.7) as u8,
+        );
+        EmptyElement::at(at)
+            + Circle::new((0, 0), radius, rim.filled())
+            + Circle::new((0, 0), radius - 1, c.filled())
+    }))?;
+    draw_color_bar(&bar_area, p.color_max)
+}
+
+/// A vertical colour bar from 0 to `max` metres, level with the map's plotting area.
+fn draw_color_bar<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, max: f64) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    const STEPS: usize = 128;
+    let mut chart = ChartBuilder::on(area)
+        .margin(10)
+        .margin_left(6)
+        .x_label_area_size(48)
+        .right_y_label_area_size(74)
+        .build_cartesian_2d(0.0..1.0, 0.0..max)?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .axis_style(AXIS)
+        .y_desc("position error (m)")
+        .axis_desc_style((FONT, AXIS_DESC_PX).into_font().color(&TEXT))
+        .label_style((FONT, TICK_PX).into_font().color(&TEXT))
+        .y_labels(7)
+        .y_label_formatter(&|v: &f64| tick(*v, max))
+        .draw()?;
+    chart.draw_series((0..STEPS).map(|i| {
+        let (lo, hi) = (i as f64 / STEPS as f64, (i + 1) as f64 / STEPS as f64);
+        let c = error_color((lo + hi) / 2.0 * max, max);
+        Rectangle::new([(0.0, lo * max), (1.0, hi * max)], c.filled())
+    }))?;
+    chart.draw_series(std::iter::once(Rectangle::new(
+        [(0.0, 0.0), (1.0, max)],
+        AXIS.stroke_width(1),
+    )))?;
+    Ok(())
+}
+
+fn draw_scatter<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, p: &ScatterPlot) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    let area = titled(root, &p.title)?;
+    let dot = PALETTE[0];
+    let fit = PALETTE[3];
+    let mut entries = vec![(p.points_label.clone(), Glyph::Circle(dot))];
+    if let Some(label) = &p.fit_label {
+        entries.push((label.clone(), Glyph::Line(fit.to_rgba(), 2)));
+    }
+    let area = legend_strip(&area, &entries)?;
+    let ((x0, x1), (y0, y1)) = (p.x_range, p.y_range);
+    let mut chart = ChartBuilder::on(&area)
+        .margin(8)
+        .margin_right(24)
+        .x_label_area_size(48)
+        .y_label_area_size(68)
+        .build_cartesian_2d(x0..x1, y0..y1)?;
+    let descs = (p.x_desc.as_str(), p.y_desc.as_str());
+    draw_mesh(&mut chart, descs, (9, 7), (x1 - x0, y1 - y0))?;
+    // translucent, so dense parts of the cloud read darker
+    let (radius, alpha) = if p.points.len() > 1500 {
+        (2, 0.35)
+    } else {
+        (3, 0.55)
+    };
+    chart.draw_series(
+        p.points
+            .iter()
+            .map(|&at| Circle::new(at, radius, dot.mix(alpha).filled())),
+    )?;
+    if let Some(line) = p.fit_segment {
+        chart.draw_series(std::iter::once(PathElement::new(
+            line.to_vec(),
+            fit.stroke_width(2),
+        )))?;
     }
     Ok(())
 }

@@ -5,9 +5,11 @@ use crate::decimate::{
     envelope, quantile_range, stride_indices, track_segments,
 };
 use crate::draw;
+use crate::errmap::{ErrorMap, ErrorMapPlot, prepare_error_map};
 use crate::error::{ReportError, Result};
 use crate::font::{FONT, SVG_FONT_STACK, ensure_font};
 use crate::io::write_atomic;
+use crate::scatter::{Scatter, ScatterPlot, prepare_scatter};
 use geom::metrics::percentile_sorted;
 use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -119,6 +121,10 @@ pub enum Figure {
     ErrorOverTime(ErrorOverTime),
     /// See [`TopDown`].
     TopDown(TopDown),
+    /// See [`ErrorMap`].
+    ErrorMap(ErrorMap),
+    /// See [`Scatter`].
+    Scatter(Scatter),
 }
 
 impl From<ErrorCdf> for Figure {
@@ -136,6 +142,18 @@ impl From<ErrorOverTime> for Figure {
 impl From<TopDown> for Figure {
     fn from(f: TopDown) -> Figure {
         Figure::TopDown(f)
+    }
+}
+
+impl From<ErrorMap> for Figure {
+    fn from(f: ErrorMap) -> Figure {
+        Figure::ErrorMap(f)
+    }
+}
+
+impl From<Scatter> for Figure {
+    fn from(f: Scatter) -> Figure {
+        Figure::Scatter(f)
     }
 }
 
@@ -185,8 +203,8 @@ pub fn trajectory_top_down(
 const IN_MEMORY: &str = "<memory>";
 
 impl Figure {
-    /// Width and height in pixels (PNG) or user units (SVG). A top-down figure's height follows
-    /// the aspect ratio of its trajectories.
+    /// Width and height in pixels (PNG) or user units (SVG). The height of a top-down figure or
+    /// an error map follows the aspect ratio of its trajectories.
     pub fn size(&self) -> (u32, u32) {
         match self {
             Figure::ErrorCdf(f) => {
@@ -205,6 +223,8 @@ impl Figure {
                 }
             }
             Figure::TopDown(f) => (draw::TOP_DOWN_WIDTH, draw::top_down_height(f)),
+            Figure::ErrorMap(f) => (draw::TOP_DOWN_WIDTH, draw::error_map_height(f)),
+            Figure::Scatter(_) => (760, 580),
         }
     }
 
@@ -252,6 +272,8 @@ impl Figure {
             Figure::ErrorCdf(f) => Plot::Cdf(prepare_cdf(f)?),
             Figure::ErrorOverTime(f) => Plot::Time(prepare_time(f)?),
             Figure::TopDown(f) => Plot::TopDown(prepare_top_down(f)?),
+            Figure::ErrorMap(f) => Plot::ErrorMap(prepare_error_map(f)?),
+            Figure::Scatter(f) => Plot::Scatter(prepare_scatter(f)?),
         };
         // values near f64::MAX overflow the padded axes; plotters cannot lay out such an axis
         let axes: Vec<(f64, f64)> = match &plot {
@@ -266,6 +288,12 @@ impl Figure {
                 .flat_map(|q| [q.x_range, q.y_range])
                 .collect(),
             Plot::TopDown(p) => vec![(p.bounds[0], p.bounds[1]), (p.bounds[2], p.bounds[3])],
+            Plot::ErrorMap(p) => vec![
+                (p.bounds[0], p.bounds[1]),
+                (p.bounds[2], p.bounds[3]),
+                (0.0, p.color_max),
+            ],
+            Plot::Scatter(p) => vec![p.x_range, p.y_range],
         };
         if !axes
             .iter()
@@ -294,6 +322,8 @@ pub(crate) enum Plot {
     Cdf(CdfPlot),
     Time(TimePlot),
     TopDown(TopDownPlot),
+    ErrorMap(ErrorMapPlot),
+    Scatter(ScatterPlot),
 }
 
 /// First and last finite point of a track.
@@ -410,7 +440,7 @@ fn finite_sorted(s: &Series, what: &str) -> Result<(Vec<f64>, usize)> {
     Ok((v, dropped))
 }
 
-fn left_out(dropped: usize) -> String {
+pub(crate) fn left_out(dropped: usize) -> String {
     match dropped {
         0 => String::new(),
         n => format!(", {n} non-finite left out"),
@@ -636,10 +666,21 @@ fn ends(points: &[[f64; 2]]) -> Option<Ends> {
     Some(((first[0], first[1]), (last[0], last[1])))
 }
 
-/// The region a top-down figure shows, `[x0, x1, y0, y1]` before padding: all of the ground
+/// The region a top-down figure shows, see [`trajectory_view`].
+pub(crate) fn top_down_view(f: &TopDown) -> Option<[f64; 4]> {
+    trajectory_view(
+        &f.ground_truth,
+        f.estimates.iter().map(|t| t.points.as_slice()),
+    )
+}
+
+/// The region a map of trajectories shows, `[x0, x1, y0, y1]` before padding: all of the ground
 /// truth, and the central 99 % (0.5th to 99.5th percentile per axis) of each estimate, so that a
 /// few wild estimates do not shrink the building to a corner. `None` without a finite point.
-pub(crate) fn top_down_view(f: &TopDown) -> Option<[f64; 4]> {
+pub(crate) fn trajectory_view<'a>(
+    ground_truth: &[[f64; 2]],
+    estimates: impl IntoIterator<Item = &'a [[f64; 2]]>,
+) -> Option<[f64; 4]> {
     let mut b = [
         f64::INFINITY,
         f64::NEG_INFINITY,
@@ -649,8 +690,7 @@ pub(crate) fn top_down_view(f: &TopDown) -> Option<[f64; 4]> {
     let mut grow = |x: (f64, f64), y: (f64, f64)| {
         b = [b[0].min(x.0), b[1].max(x.1), b[2].min(y.0), b[3].max(y.1)];
     };
-    let gt = f
-        .ground_truth
+    let gt = ground_truth
         .iter()
         .filter(|p| p[0].is_finite() && p[1].is_finite());
     let xs = quantile_range(gt.clone().map(|p| p[0]), 0.0, 1.0);
@@ -658,12 +698,11 @@ pub(crate) fn top_down_view(f: &TopDown) -> Option<[f64; 4]> {
     if let (Some(x), Some(y)) = (xs, ys) {
         grow(x, y);
     }
-    for t in &f.estimates {
-        let pts = t
-            .points
+    for points in estimates {
+        let pts = points
             .iter()
             .filter(|p| p[0].is_finite() && p[1].is_finite());
-        let (lo, hi) = if t.points.len() >= 200 {
+        let (lo, hi) = if points.len() >= 200 {
             (0.005, 0.995)
         } else {
             (0.0, 1.0)

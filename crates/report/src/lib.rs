@@ -8,8 +8,10 @@
 //! # Entry points
 //! - [`pose_eval_report`]: the whole `eval` report (HTML + figures) for a [`PoseEvaluation`];
 //!   [`pose_summary_table`]: its summary table, also for the terminal.
-//! - [`Figure`]: [`error_cdf`], [`error_over_time`], [`trajectory_top_down`] (or the structs
-//!   [`ErrorCdf`], [`ErrorOverTime`], [`TopDown`]) rendered with [`Figure::to_png`],
+//! - [`Figure`]: [`error_cdf`], [`error_over_time`], [`trajectory_top_down`], [`error_map`]
+//!   (position errors coloured along a walk), [`scatter`] (e.g. predicted uncertainty against
+//!   error, with Pearson r) or the structs [`ErrorCdf`], [`ErrorOverTime`], [`TopDown`],
+//!   [`ErrorMap`], [`Scatter`], rendered with [`Figure::to_png`],
 //!   [`Figure::to_svg`], [`Figure::save_png`], [`Figure::save_svg`], [`Figure::save_both`].
 //! - [`Table`]: aligned text for terminals, HTML, JSON rows.
 //! - [`HtmlReport`]: a builder of one-file reports (sections, paragraphs, highlight cards,
@@ -45,15 +47,18 @@
 
 mod decimate;
 mod draw;
+mod errmap;
 mod error;
 mod eval;
 mod figure;
 mod font;
 mod html;
 mod io;
+mod scatter;
 mod sheet;
 mod table;
 
+pub use errmap::{ErrorMap, error_map};
 pub use error::{ReportError, Result};
 pub use eval::{pose_eval_report, pose_summary_table};
 pub use figure::{
@@ -62,6 +67,7 @@ pub use figure::{
 };
 pub use html::HtmlReport;
 pub use io::write_atomic;
+pub use scatter::{Scatter, scatter};
 pub use sheet::{Tile, contact_sheet};
 pub use table::Table;
 
