@@ -4,8 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
+use data::PoseFrame;
 use data::native::{self, DatasetInfo, NativeDataset, SplitName, Splits};
-use data::{PoseFrame, Trajectory};
 use geom::Pose;
 use imgproc::view::{View, ViewSpec};
 use rayon::prelude::*;
@@ -72,38 +72,113 @@ pub struct TrainData {
     pub hash: String,
 }
 
-/// Opens a native dataset: with `splits.toml` through [`NativeDataset::open`], else its metadata
-/// and poses with splits made by [`native::split_by_sequence`] (seeded by `seed`).
-fn open(root: &Path, seed: u64) -> Result<(DatasetInfo, Trajectory, Splits)> {
-    if root.join(native::SPLITS_TOML).is_file() {
-        let ds = NativeDataset::open(root)?;
-        return Ok((ds.info, ds.trajectory, ds.splits));
-    }
-    let info = DatasetInfo::read(&root.join(native::DATASET_TOML))?;
-    let trajectory = native::read(root)?;
-    let mut seqs: Vec<String> = trajectory.frames.iter().map(|f| f.seq.clone()).collect();
-    seqs.sort();
-    seqs.dedup();
-    let splits = native::split_by_sequence(&seqs, DEFAULT_VAL_FRACTION, 0.0, seed);
-    Ok((info, trajectory, splits))
+/// Every fifth frame of a posed photo collection without sequences is held out for validation
+/// (the protocol of the real-photo acceptance test: train on four fifths, test on the rest).
+pub const HOLDOUT_EVERY: usize = 5;
+
+/// A frame with the image file it was taken from.
+struct Shot {
+    frame: PoseFrame,
+    path: PathBuf,
 }
 
-/// Frames of a split, in file order.
-fn split_frames<'a>(traj: &'a Trajectory, splits: &Splits, which: SplitName) -> Vec<&'a PoseFrame> {
-    let seqs = splits.get(which);
-    traj.frames
-        .iter()
-        .filter(|f| seqs.contains(&f.seq))
-        .collect()
+/// Opens a dataset: a native folder (with `splits.toml`, or splits made by
+/// [`native::split_by_sequence`] seeded by `seed`), or posed photos in NeRF `transforms.json`
+/// form (the file or its folder; frames without an image are skipped, as instant-ngp does, and
+/// every [`HOLDOUT_EVERY`]-th frame is held out for validation). Returns the metadata and the
+/// train and validation shots.
+fn open(root: &Path, seed: u64) -> Result<(DatasetInfo, Splits, Vec<Shot>, Vec<Shot>)> {
+    if is_nerf(root) {
+        return open_nerf(root);
+    }
+    let (info, trajectory, splits) = if root.join(native::SPLITS_TOML).is_file() {
+        let ds = NativeDataset::open(root)?;
+        (ds.info, ds.trajectory, ds.splits)
+    } else {
+        let info = DatasetInfo::read(&root.join(native::DATASET_TOML))?;
+        let trajectory = native::read(root)?;
+        let mut seqs: Vec<String> = trajectory.frames.iter().map(|f| f.seq.clone()).collect();
+        seqs.sort();
+        seqs.dedup();
+        let splits = native::split_by_sequence(&seqs, DEFAULT_VAL_FRACTION, 0.0, seed);
+        (info, trajectory, splits)
+    };
+    let shots = |which: SplitName| -> Result<Vec<Shot>> {
+        let seqs = splits.get(which);
+        trajectory
+            .frames
+            .iter()
+            .filter(|f| seqs.contains(&f.seq))
+            .map(|f| {
+                Ok(Shot {
+                    path: frame_path(root, f)?,
+                    frame: f.clone(),
+                })
+            })
+            .collect()
+    };
+    let (train, val) = (shots(SplitName::Train)?, shots(SplitName::Val)?);
+    Ok((info, splits, train, val))
+}
+
+/// True when `root` holds posed photos in NeRF form rather than a native dataset.
+fn is_nerf(root: &Path) -> bool {
+    root.extension().is_some_and(|e| e == "json") || root.join("transforms.json").is_file()
+}
+
+/// Degrees of freedom of the dataset at `root`: `dataset.toml`'s `dof`, 6 for posed photos.
+pub fn dof(root: &Path) -> Result<u8> {
+    if is_nerf(root) {
+        return Ok(6);
+    }
+    Ok(DatasetInfo::read(&root.join(native::DATASET_TOML))?.dof)
+}
+
+/// Posed photos in NeRF form, read directly (see [`open`]).
+fn open_nerf(root: &Path) -> Result<(DatasetInfo, Splits, Vec<Shot>, Vec<Shot>)> {
+    let (trajectory, images) = data::nerf::read_with_images(root)?;
+    let camera = trajectory.camera.ok_or_else(|| {
+        LearnError::Input(format!(
+            "{}: the frames have different cameras; a pose network learns one camera",
+            root.display()
+        ))
+    })?;
+    let (mut train, mut val) = (Vec::new(), Vec::new());
+    let present = trajectory
+        .frames
+        .into_iter()
+        .zip(images)
+        .filter(|(_, path)| path.is_file());
+    for (i, (frame, path)) in present.enumerate() {
+        let shot = Shot { frame, path };
+        if i % HOLDOUT_EVERY == HOLDOUT_EVERY - 1 {
+            val.push(shot);
+        } else {
+            train.push(shot);
+        }
+    }
+    let info = DatasetInfo {
+        name: format!("posed photos {}", root.display()),
+        dof: 6,
+        units: "arbitrary".into(),
+        frame_rate: 0.0,
+        mount: geom::Mount::Forward,
+        camera: native::CameraInfo::from_camera(&camera),
+        generator: None,
+    };
+    let splits = Splits {
+        train: vec![format!("every frame but each {HOLDOUT_EVERY}th")],
+        val: vec![format!("every {HOLDOUT_EVERY}th frame")],
+        test: Vec::new(),
+    };
+    Ok((info, splits, train, val))
 }
 
 /// Reads the train and validation frames of the native dataset at `root` and makes their views.
 /// Errors name the file: a missing or undecodable image, a view of another size than the
 /// first, an empty split.
 pub fn load(root: &Path, spec: &ViewSpec, seed: u64) -> Result<TrainData> {
-    let (info, trajectory, splits) = open(root, seed)?;
-    let train = split_frames(&trajectory, &splits, SplitName::Train);
-    let val = split_frames(&trajectory, &splits, SplitName::Val);
+    let (info, splits, train, val) = open(root, seed)?;
     let splits_path = root.join(native::SPLITS_TOML);
     if train.is_empty() {
         return Err(LearnError::Input(format!(
@@ -116,21 +191,17 @@ pub fn load(root: &Path, spec: &ViewSpec, seed: u64) -> Result<TrainData> {
         return Err(LearnError::Input(format!(
             "{}: no validation frames; list at least one sequence under `val` (sequences: {:?})",
             splits_path.display(),
-            trajectory
-                .frames
-                .iter()
-                .map(|f| f.seq.as_str())
-                .collect::<std::collections::BTreeSet<_>>()
+            splits.train
         )));
     }
     let mut hash = Fnv64::new();
-    for file in [native::DATASET_TOML, native::POSES_CSV] {
-        let path = root.join(file);
-        hash.update(&std::fs::read(&path).map_err(|e| LearnError::io(&path, e))?);
+    hash.update(format!("{info:?}").as_bytes());
+    for shot in train.iter().chain(&val) {
+        hash.update(format!("{:?}", shot.frame).as_bytes());
     }
     hash.update(format!("{splits:?}").as_bytes());
-    let (train, train_hash) = make_samples(root, &train, spec)?;
-    let (val, val_hash) = make_samples(root, &val, spec)?;
+    let (train, train_hash) = make_samples(&train, spec)?;
+    let (val, val_hash) = make_samples(&val, spec)?;
     if (train.channels, train.width, train.height) != (val.channels, val.width, val.height) {
         return Err(LearnError::Input(format!(
             "{}: validation views are {}x{}x{} but training views {}x{}x{}",
@@ -185,10 +256,10 @@ fn view_of(path: &Path, spec: &ViewSpec) -> Result<(View, u64)> {
 }
 
 /// Views of `frames` (in parallel) and a hash of their image bytes (in order).
-fn make_samples(root: &Path, frames: &[&PoseFrame], spec: &ViewSpec) -> Result<(Samples, u64)> {
-    let views = frames
+fn make_samples(shots: &[Shot], spec: &ViewSpec) -> Result<(Samples, u64)> {
+    let views = shots
         .par_iter()
-        .map(|f| view_of(&frame_path(root, f)?, spec))
+        .map(|s| view_of(&s.path, spec))
         .collect::<Result<Vec<_>>>()?;
     let (c, w, h) = match views.first() {
         Some((v, _)) => (v.channels, v.width, v.height),
@@ -203,10 +274,10 @@ fn make_samples(root: &Path, frames: &[&PoseFrame], spec: &ViewSpec) -> Result<(
         names: Vec::with_capacity(views.len()),
     };
     let mut hash = Fnv64::new();
-    for ((view, image_hash), frame) in views.into_iter().zip(frames) {
+    for ((view, image_hash), Shot { frame, path }) in views.into_iter().zip(shots) {
         if (view.channels, view.width, view.height) != (c, w, h) {
             return Err(LearnError::Image {
-                path: frame_path(root, frame)?,
+                path: path.clone(),
                 msg: format!(
                     "view is {}x{}x{}, the first frame's is {c}x{h}x{w} (images of one size needed)",
                     view.channels, view.height, view.width

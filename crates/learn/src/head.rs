@@ -40,6 +40,15 @@ impl Task {
         if dof == 3 { Task::Pose3 } else { Task::Pose6 }
     }
 
+    /// The view preset a task trains on when none is given: the ceiling-camera literature's
+    /// `gray160` for 3-DoF, `rgb256` (PoseNet's input) for 6-DoF.
+    pub fn default_view(self) -> &'static str {
+        match self {
+            Task::Pose3 => "gray160",
+            Task::Pose6 => "rgb256",
+        }
+    }
+
     /// Number of network outputs.
     pub fn outputs(self) -> usize {
         match self {

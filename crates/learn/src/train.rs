@@ -513,17 +513,10 @@ fn settings_text(c: &TrainConfig, task: Task) -> String {
 pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result<TrainSummary> {
     cfg.validate()?;
     let t0 = Instant::now();
-    let default_view = match cfg.task {
-        Some(Task::Pose3) => "gray160",
-        Some(Task::Pose6) => "rgb256",
-        None => {
-            let info = data::native::DatasetInfo::read(&cfg.data.join(data::native::DATASET_TOML))?;
-            if Task::for_dof(info.dof) == Task::Pose3 {
-                "gray160"
-            } else {
-                "rgb256"
-            }
-        }
+    let default_view = match (&cfg.view, cfg.task) {
+        (Some(_), _) => "",
+        (None, Some(task)) => task.default_view(),
+        (None, None) => Task::for_dof(dataset::dof(&cfg.data)?).default_view(),
     };
     let spec = ViewSpec::resolve(cfg.view.as_deref().unwrap_or(default_view))
         .map_err(|e| LearnError::Config(e.to_string()))?;

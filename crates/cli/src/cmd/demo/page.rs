@@ -6,7 +6,7 @@ use super::{Evaluation, FrameResult, UncertaintyFigures};
 use anyhow::{Context, Result};
 use data::native::NativeDataset;
 use learn::TrainSummary;
-use report::{ErrorCdf, Figure, HtmlReport, Series, Tile, TopDown, Track};
+use report::{ErrorCdf, ErrorMap, Figure, HtmlReport, Series, Tile};
 use std::path::{Path, PathBuf};
 use synth::Variant;
 use synth::render::{RenderMode, RenderOptions, RenderScene, Renderer};
@@ -78,21 +78,32 @@ pub fn write(dir: &Path, input: &PageInput) -> Result<PathBuf> {
         "Share of test frames whose error is at most x.",
     )?;
 
-    let truth: Vec<[f64; 2]> = r.iter().map(|f| xy(&f.truth)).collect();
-    let est: Vec<[f64; 2]> = r.iter().map(|f| xy(&f.estimate.pose)).collect();
-    let map: Figure = TopDown {
-        title: "Test walk seen from above".into(),
-        ground_truth: truth,
-        estimates: vec![Track::new("estimate", est)],
+    let world = scene::world(input.scene, Variant::Normal)?;
+    let floor_plan: Vec<[f64; 4]> = world
+        .regions
+        .iter()
+        .filter(|g| {
+            g.place.building == input.scene.building && g.place.storey == input.scene.storey
+        })
+        .map(|g| [g.min[0], g.min[1], g.max[0], g.max[1]].map(f64::from))
+        .collect();
+    let map: Figure = ErrorMap {
+        title: "Test walk seen from above, coloured by position error".into(),
+        ground_truth: r.iter().map(|f| xy(&f.truth)).collect(),
+        estimates: r.iter().map(|f| xy(&f.estimate.pose)).collect(),
+        errors_m: errors(r, |f| f.pos_err_m),
+        color_max_m: None,
         links: true,
+        floor_plan,
     }
     .into();
     figure(
         &mut page,
         dir,
-        "trajectory",
+        "error_map",
         &map,
-        "Ground truth and estimates, each estimate linked to its true position.",
+        "Estimates as dots coloured by their position error, linked to the true position (grey \
+         line: the true walk; outlines: the storey's rooms and corridors).",
     )?;
 
     page.section("Uncertainty");
@@ -105,9 +116,26 @@ pub fn write(dir: &Path, input: &PageInput) -> Result<PathBuf> {
         input.uncertainty.top10_median_m,
         input.uncertainty.rest_median_m
     ));
+    let points: Vec<[f64; 2]> = r
+        .iter()
+        .map(|f| [f.estimate.sigma_pos_m, f.pos_err_m])
+        .collect();
+    let sc = report::scatter(
+        "Uncertainty against error",
+        "MC-dropout sigma_pos_m (m)",
+        "position error (m)",
+        &points,
+    );
+    figure(
+        &mut page,
+        dir,
+        "uncertainty",
+        &sc,
+        "One dot per test frame; the line is the least-squares fit.",
+    )?;
 
     page.section("Frames");
-    let sheet = frames_sheet(input)?;
+    let sheet = frames_sheet(input, &world)?;
     report::write_atomic(&dir.join("frames.png"), &sheet)?;
     page.png(
         &sheet,
@@ -157,7 +185,7 @@ fn figure(
 }
 
 /// Pairs of (test frame, render from its estimate) at the smallest, median and largest errors.
-fn frames_sheet(input: &PageInput) -> Result<Vec<u8>> {
+fn frames_sheet(input: &PageInput, world: &synth::World) -> Result<Vec<u8>> {
     let r = input.results;
     let mut order: Vec<usize> = (0..r.len()).collect();
     order.sort_by(|&a, &b| r[a].pos_err_m.total_cmp(&r[b].pos_err_m));
@@ -168,8 +196,7 @@ fn frames_sheet(input: &PageInput) -> Result<Vec<u8>> {
         3 * order.len() / 4,
         order.len() - 1,
     ];
-    let world = scene::world(input.scene, Variant::Normal)?;
-    let scene = RenderScene::new(&world)?;
+    let scene = RenderScene::new(world)?;
     let camera = scene::camera(input.scene)?;
     let mut renderer = Renderer::new();
     let opts = RenderOptions {
