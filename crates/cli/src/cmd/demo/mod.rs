@@ -125,12 +125,13 @@ fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
         args.view
             .clone()
             .unwrap_or_else(|| match (ceiling, args.quick) {
-                (true, _) => "gray160".into(),
+                (true, true) => "gray,resize=80x60,clahe=2.0/4,norm=pm1".into(),
+                (true, false) => "gray160".into(),
                 (false, true) => "gray,resize=64x48,norm=pm1".into(),
                 (false, false) => "gray,resize=80x60,norm=pm1".into(),
             }),
     );
-    train.epochs = args.epochs.unwrap_or(if args.quick { 4 } else { 9 });
+    train.epochs = args.epochs.unwrap_or(if args.quick { 4 } else { 8 });
     train.batch_size = 32;
     train.lr = 2e-3;
     train.schedule = Schedule::Cosine {
