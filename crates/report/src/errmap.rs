@@ -327,14 +327,7 @@ mod tests {
             ),
         ];
         for fig in bad {
-            assert!(
-                matches!(fig.to_png(), Err(ReportError::BadInput(_))),
-                "{fig:?}"
-            );
-            assert!(
-                matches!(fig.to_svg(), Err(ReportError::BadInput(_))),
-                "{fig:?}"
-            );
+            crate::figure::assert_rejected(&fig);
         }
     }
 

@@ -807,6 +807,19 @@ pub(crate) fn fmt_sig(v: f64) -> String {
     }
 }
 
+/// Test helper: `fig` is refused as bad input in both output formats.
+#[cfg(test)]
+pub(crate) fn assert_rejected(fig: &Figure) {
+    assert!(
+        matches!(fig.to_png(), Err(ReportError::BadInput(_))),
+        "{fig:?}"
+    );
+    assert!(
+        matches!(fig.to_svg(), Err(ReportError::BadInput(_))),
+        "{fig:?}"
+    );
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -892,14 +905,7 @@ mod tests {
             trajectory_top_down("t", &[], &[], true),
         ];
         for fig in bad {
-            assert!(
-                matches!(fig.to_png(), Err(ReportError::BadInput(_))),
-                "{fig:?}"
-            );
-            assert!(
-                matches!(fig.to_svg(), Err(ReportError::BadInput(_))),
-                "{fig:?}"
-            );
+            assert_rejected(&fig);
         }
     }
 
