@@ -114,3 +114,26 @@ fn train_localize_eval_agree_on_the_validation_error() -> TestResult {
     assert!(stderr.contains("model.toml"), "{stderr}");
     Ok(())
 }
+
+#[test]
+fn bench_infer_reports_each_input_and_thread_count() -> TestResult {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_indoorloc"))
+        .args(["bench", "infer", "--infer-runs", "1", "--json"])
+        .env("PEERS_VENV", "/nonexistent-peers-venv")
+        .output()?;
+    let v = json_of(&out)?;
+    let rows = v["learn"].as_array().ok_or("no learn rows")?;
+    assert!(rows.len() >= 2, "{rows:?}");
+    for r in rows {
+        assert_eq!(r["what"], "infer");
+        let ms = r["ms"].as_f64().ok_or("ms")?;
+        assert!(ms.is_finite() && ms > 0.0, "{r}");
+        // Without the peers' venv (or scripts) the ratio is absent and the note says why.
+        assert!(r["ratio_vs_peer"].is_null());
+        assert!(
+            r["peer_note"].as_str().is_some_and(|n| !n.is_empty()),
+            "{r}"
+        );
+    }
+    Ok(())
+}

@@ -26,6 +26,7 @@
 //! # Ok::<(), learn::LearnError>(())
 //! ```
 
+pub mod bench;
 pub mod checkpoint;
 pub mod dataset;
 mod error;

@@ -1,6 +1,7 @@
 //! `indoorloc bench`: speed figures of each stage, beside the reference peer where one is
 //! installed, as a ratio measured in the same run.
 
+mod learn;
 mod preprocess;
 
 use crate::cmd::eval::{EvalArgs, evaluate};
@@ -25,6 +26,11 @@ pub enum Stage {
     Render,
     /// Image views on one thread (160x120 gray + CLAHE, 256x256 [-1, 1]), against OpenCV.
     Preprocess,
+    /// ms per training step of the small network (batch 32, 1x120x160 and 3x256x256), against
+    /// PyTorch (torch_apr.py).
+    Train,
+    /// ms per single-image inference of the small network, 1 thread and all, against PyTorch.
+    Infer,
 }
 
 /// Arguments of `indoorloc bench`.
@@ -49,6 +55,12 @@ pub struct BenchArgs {
     /// current folder, or $INDOORLOC_PEERS).
     #[arg(long, value_name = "DIR")]
     peers: Option<PathBuf>,
+    /// Timed training steps per input size in the train benchmark.
+    #[arg(long, default_value_t = 10)]
+    train_steps: usize,
+    /// Timed single-image inferences per input size and thread count in the infer benchmark.
+    #[arg(long, default_value_t = 30)]
+    infer_runs: usize,
     /// Print one JSON document instead of a table.
     #[arg(long)]
     json: bool,
@@ -92,6 +104,8 @@ struct BenchOutput {
     render: Vec<RenderFigures>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     preprocess: Vec<preprocess::ViewFigures>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    learn: Vec<learn::LearnFigures>,
 }
 
 /// Runs `indoorloc bench`.
@@ -101,13 +115,27 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     }
     let stages = match args.stage {
         Some(s) => vec![s],
-        None => vec![Stage::Eval, Stage::Preprocess, Stage::Render],
+        None => vec![
+            Stage::Eval,
+            Stage::Preprocess,
+            Stage::Render,
+            Stage::Train,
+            Stage::Infer,
+        ],
     };
     let mut out = BenchOutput {
         stages: Vec::new(),
         render: Vec::new(),
         preprocess: Vec::new(),
+        learn: Vec::new(),
     };
+    let (train, infer) = (
+        stages.contains(&Stage::Train),
+        stages.contains(&Stage::Infer),
+    );
+    if args.train_steps == 0 || args.infer_runs == 0 {
+        bail!("--train-steps and --infer-runs must be at least 1");
+    }
     for stage in stages {
         match stage {
             Stage::Eval => out.stages.push(bench_eval(args)?),
@@ -115,12 +143,24 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             Stage::Preprocess => {
                 out.preprocess = preprocess::bench(args.image.as_deref(), peer_python(args))?
             }
+            // Both learn stages are measured together, sharing PyTorch's runs.
+            Stage::Train | Stage::Infer if out.learn.is_empty() => {
+                out.learn = learn::bench(
+                    train,
+                    infer,
+                    args.train_steps,
+                    args.infer_runs,
+                    peer_python(args),
+                )?
+            }
+            Stage::Train | Stage::Infer => {}
         }
     }
     if args.json {
         print_json(&out)
     } else {
         let mut text = preprocess::table(&out.preprocess);
+        text.push_str(&learn::table(&out.learn));
         if !out.render.is_empty() {
             text.push_str(&format!(
                 "{:<10}{:>10}{:>9}{:>10}{:>12}\n",

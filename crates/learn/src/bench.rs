@@ -1,0 +1,83 @@
+//! Speed of the networks as `torch_apr.py` measures PyTorch's, for `indoorloc bench train|infer`:
+//! the same work on seeded random data, so the two figures compare like for like.
+//!
+//! - Training step (timed as a whole): forward in training mode, PoseNet loss (β = 1), backward,
+//!   Adam step (lr 1e-3, ε 1e-8, no weight decay), reading the loss back.
+//! - Inference: the network in evaluation mode on one image (BatchNorm with running statistics),
+//!   reading the output back.
+//!
+//! Both run `warmup` untimed repetitions first and return every timed one in milliseconds.
+
+use std::time::Instant;
+
+use burn::optim::{AdamConfig, GradientsParams};
+use burn::tensor::{Device, Distribution, Tensor};
+use geom::Mount;
+
+use crate::Result;
+use crate::head::{PoseCoding, Task};
+use crate::loss::pose_loss;
+use crate::net::{Arch, NetConfig};
+
+fn net_config(arch: Arch, channels: usize) -> NetConfig {
+    NetConfig {
+        arch,
+        channels,
+        outputs: Task::Pose6.outputs(),
+        learned_weighting: false,
+    }
+}
+
+/// Milliseconds per training step of `arch` on batches `[batch, C, H, W]` (`input` = `[C, H, W]`).
+pub fn train_step_ms(
+    arch: Arch,
+    input: [usize; 3],
+    batch: usize,
+    warmup: usize,
+    steps: usize,
+) -> Result<Vec<f64>> {
+    let device = Device::flex().autodiff();
+    let [c, h, w] = input;
+    let mut net = net_config(arch, c).init(&device, 0)?;
+    let coding = PoseCoding {
+        task: Task::Pose6,
+        pos_mean: vec![0.0; 3],
+        pos_std: vec![1.0; 3],
+        mount: Mount::Forward,
+        z: 0.0,
+    };
+    let mut optim = AdamConfig::new().with_epsilon(1e-8).init();
+    device.seed(1);
+    let x = Tensor::<4>::random([batch, c, h, w], Distribution::Normal(0.0, 1.0), &device);
+    let y = Tensor::<2>::random([batch, 7], Distribution::Normal(0.0, 1.0), &device);
+    let mut times = Vec::with_capacity(steps);
+    for i in 0..warmup + steps {
+        let t = Instant::now();
+        let out = net.forward(x.clone());
+        let loss = pose_loss(&coding, out, y.clone(), 1.0, None).total;
+        let grads = GradientsParams::from_grads(loss.backward(), &net);
+        net = optim.step(1e-3, net, grads);
+        let _ = loss.into_scalar::<f32>();
+        if i >= warmup {
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+    }
+    Ok(times)
+}
+
+/// Milliseconds per single-image inference of `arch` on one `[1, C, H, W]` image.
+pub fn infer_ms(arch: Arch, input: [usize; 3], warmup: usize, runs: usize) -> Result<Vec<f64>> {
+    let device = Device::flex();
+    let [c, h, w] = input;
+    let net = net_config(arch, c).init(&device, 0)?;
+    let one = Tensor::<4>::random([1, c, h, w], Distribution::Normal(0.0, 1.0), &device);
+    let mut times = Vec::with_capacity(runs);
+    for i in 0..warmup + runs {
+        let t = Instant::now();
+        let _ = net.forward(one.clone()).into_data();
+        if i >= warmup {
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+    }
+    Ok(times)
+}
