@@ -3,7 +3,7 @@
 //! thread and all threads), beside PyTorch running `torch_apr.py --arch small` with the same
 //! settings in the same run.
 
-use super::Peer;
+use super::{Peer, VsPeer};
 use anyhow::{Context, Result};
 use learn::Arch;
 use learn::bench::{infer_ms, train_step_ms};
@@ -30,13 +30,9 @@ pub struct LearnFigures {
     threads: usize,
     /// indoorloc, median milliseconds.
     ms: f64,
-    /// PyTorch's median milliseconds in the same run, when it ran.
-    peer_ms: Option<f64>,
-    peer: &'static str,
-    /// `peer_ms / ms`: above 1, indoorloc is faster.
-    ratio_vs_peer: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    peer_note: Option<String>,
+    /// PyTorch's median milliseconds in the same run beside ours.
+    #[serde(flatten)]
+    vs: VsPeer,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -135,10 +131,7 @@ pub fn bench(
                     batch,
                     threads,
                     ms,
-                    peer_ms: peer,
-                    peer: "PyTorch torch_apr.py",
-                    ratio_vs_peer: peer.map(|p| p / ms),
-                    peer_note: peer_note.clone(),
+                    vs: VsPeer::new("PyTorch torch_apr.py", ms, peer, peer_note.clone()),
                 });
             };
             if train {
@@ -176,11 +169,12 @@ pub fn table(rows: &[LearnFigures]) -> String {
             r.batch,
             r.threads,
             r.ms,
-            r.peer_ms.map_or("–".into(), |p| format!("{p:.2}")),
-            r.ratio_vs_peer.map_or("–".into(), |x| format!("{x:.2}x")),
+            r.vs.peer_ms.map_or("–".into(), |p| format!("{p:.2}")),
+            r.vs.ratio_vs_peer
+                .map_or("–".into(), |x| format!("{x:.2}x")),
         ));
     }
-    if let Some(note) = rows.iter().find_map(|r| r.peer_note.as_ref()) {
+    if let Some(note) = rows.iter().find_map(|r| r.vs.peer_note.as_ref()) {
         text.push_str(&format!("PyTorch not measured: {note}\n"));
     }
     text

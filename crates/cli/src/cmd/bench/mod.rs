@@ -75,14 +75,40 @@ struct StageFigures {
     ms: f64,
     /// indoorloc with the HTML report and its plots, milliseconds.
     ms_with_report: f64,
+    /// The peer's figures beside ours.
+    #[serde(flatten)]
+    vs: VsPeer,
+}
+
+/// The peer's time for the same work beside ours, in every benchmark's JSON (flattened) and table.
+#[derive(Debug, Serialize)]
+pub struct VsPeer {
     /// The peer's own timing of the same work, milliseconds, when the peer ran.
-    peer_ms: Option<f64>,
-    peer: &'static str,
-    /// `peer_ms / ms`: how many times faster indoorloc is.
-    ratio_vs_peer: Option<f64>,
+    pub peer_ms: Option<f64>,
+    /// What the peer is.
+    pub peer: &'static str,
+    /// `peer_ms / ms`: how many times faster indoorloc is (below 1: slower).
+    pub ratio_vs_peer: Option<f64>,
     /// Why the peer did not run, when it did not.
     #[serde(skip_serializing_if = "Option::is_none")]
-    peer_note: Option<String>,
+    pub peer_note: Option<String>,
+}
+
+impl VsPeer {
+    /// Our `ms` beside the peer's outcome.
+    pub fn new(
+        peer: &'static str,
+        ms: f64,
+        peer_ms: Option<f64>,
+        peer_note: Option<String>,
+    ) -> VsPeer {
+        VsPeer {
+            ratio_vs_peer: peer_ms.map(|p| p / ms),
+            peer_ms,
+            peer,
+            peer_note,
+        }
+    }
 }
 
 /// Renderer speed for one mode and size.
@@ -193,11 +219,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 s.frames,
                 s.ms,
                 s.ms_with_report,
-                opt(s.peer_ms, 1),
-                opt(s.ratio_vs_peer, 2)
+                opt(s.vs.peer_ms, 1),
+                opt(s.vs.ratio_vs_peer, 2)
             ));
-            if let Some(note) = &s.peer_note {
-                text.push_str(&format!("  {}: {note}\n", s.peer));
+            if let Some(note) = &s.vs.peer_note {
+                text.push_str(&format!("  {}: {note}\n", s.vs.peer));
             }
         }
         print_text(&text)
@@ -293,10 +319,7 @@ fn bench_eval(args: &BenchArgs) -> Result<StageFigures> {
         frames: args.frames,
         ms,
         ms_with_report,
-        ratio_vs_peer: peer_ms.map(|p| p / ms),
-        peer_ms,
-        peer: "numpy/scipy metrics.py",
-        peer_note,
+        vs: VsPeer::new("numpy/scipy metrics.py", ms, peer_ms, peer_note),
     })
 }
 

@@ -9,7 +9,7 @@
 //! Both sides time the view alone (no decoding, no writing), take the median of many runs, and
 //! run OpenCV with one thread.
 
-use super::Peer;
+use super::{Peer, VsPeer};
 use anyhow::{Context, Result, bail};
 use imgproc::view::{Scratch, ViewSpec, gray_clahe_view_into};
 use serde::Serialize;
@@ -34,13 +34,9 @@ pub struct ViewFigures {
     input_size: [u32; 2],
     /// indoorloc, median ms per image, one thread.
     ms: f64,
-    /// The peer's median ms per image, when it ran.
-    peer_ms: Option<f64>,
-    peer: &'static str,
-    /// `peer_ms / ms`: how many times faster indoorloc is.
-    ratio_vs_peer: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    peer_note: Option<String>,
+    /// The peer's median ms per image beside ours.
+    #[serde(flatten)]
+    vs: VsPeer,
 }
 
 /// OpenCV resize + NumPy normalisation to a CHW tensor, timed like `clahe.py` times its pipeline.
@@ -98,10 +94,7 @@ pub fn bench(image: Option<&Path>, peer: Result<Peer>) -> Result<Vec<ViewFigures
         image: path.clone(),
         input_size,
         ms,
-        ratio_vs_peer: peer_ms.map(|p| p / ms),
-        peer_ms,
-        peer,
-        peer_note: note,
+        vs: VsPeer::new(peer, ms, peer_ms, note),
     };
     Ok(vec![
         figures(
@@ -144,11 +137,11 @@ pub fn table(rows: &[ViewFigures]) -> String {
             "{:<10}{:>10.3}{:>12}{:>10}\n",
             r.view,
             r.ms,
-            opt(r.peer_ms, 3),
-            opt(r.ratio_vs_peer, 2)
+            opt(r.vs.peer_ms, 3),
+            opt(r.vs.ratio_vs_peer, 2)
         ));
-        if let Some(note) = &r.peer_note {
-            t.push_str(&format!("  {}: {note}\n", r.peer));
+        if let Some(note) = &r.vs.peer_note {
+            t.push_str(&format!("  {}: {note}\n", r.vs.peer));
         }
     }
     t
