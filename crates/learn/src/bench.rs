@@ -17,7 +17,7 @@ use geom::Mount;
 use crate::Result;
 use crate::head::{PoseCoding, Task};
 use crate::loss::pose_loss;
-use crate::net::{Arch, NetConfig};
+use crate::net::{Arch, HeadConfig, NetConfig};
 
 fn net_config(arch: Arch, channels: usize) -> NetConfig {
     NetConfig {
@@ -25,6 +25,7 @@ fn net_config(arch: Arch, channels: usize) -> NetConfig {
         channels,
         outputs: Task::Pose6.outputs(),
         learned_weighting: false,
+        head: HeadConfig::default(),
     }
 }
 

@@ -34,7 +34,7 @@ pub const MODEL_BPK: &str = "model.bpk";
 /// Folder of the resume state.
 pub const STATE_DIR: &str = "state";
 /// Version of the checkpoint layout written by this crate.
-pub const FORMAT: u32 = 1;
+pub const FORMAT: u32 = 2;
 
 /// The dataset a model was trained on.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

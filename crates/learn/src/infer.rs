@@ -7,6 +7,12 @@
 //! `sigma_pos_m = sqrt(trace Σ_pos)` with the population covariance of the sample positions, and
 //! `sigma_rot_deg` is the RMS angle between the samples and the mean rotation. Masks come from a
 //! generator seeded per call, so the same image gives the same estimate every time.
+//!
+//! A model with a per-image scale output ([`crate::net::HeadConfig::aleatoric`]) adds that
+//! error's own covariance: under the density `∝ exp(−‖e‖ / b)` in `d` dimensions,
+//! `E‖e‖² = d(d + 1)·b²`, averaged over the passes, so `sigma_pos_m` holds both what the model
+//! is unsure of (the MC spread) and what the image leaves open (the scale), with or without
+//! MC passes.
 
 use std::path::Path;
 
@@ -38,7 +44,8 @@ pub struct Estimate {
     pub pose: Pose,
     /// The 3-DoF pose, for 3-DoF models.
     pub pose3: Option<Pose3>,
-    /// `sqrt(trace Σ_pos)` over the MC samples, metres; 0 without MC passes.
+    /// `sqrt(trace Σ_pos)`, metres: the spread of the MC samples plus, for models with a scale
+    /// output, the predicted error covariance; 0 for neither.
     pub sigma_pos_m: f64,
     /// RMS angle of the MC samples to the mean rotation, degrees; 0 without MC passes.
     pub sigma_rot_deg: f64,
@@ -188,12 +195,27 @@ pub fn run(
     Ok(rows)
 }
 
+/// Mean predicted position-error variance `d(d + 1)·b²` of output rows with a log-scale column
+/// (see the module docs); 0 for rows without one.
+fn aleatoric_variance(coding: &PoseCoding, rows: &[Vec<f32>]) -> f64 {
+    let column = coding.task.outputs();
+    let d = coding.task.pos_dims() as f64;
+    let (lo, hi) = crate::loss::LOG_SCALE_RANGE;
+    let var: f64 = rows
+        .iter()
+        .filter_map(|r| r.get(column))
+        .map(|&s| d * (d + 1.0) * (2.0 * s.clamp(lo, hi) as f64).exp())
+        .sum();
+    var / rows.len().max(1) as f64
+}
+
 /// One [`Estimate`] per `passes` consecutive output rows.
 pub fn estimates(coding: &PoseCoding, rows: &[Vec<f32>], passes: usize) -> Vec<Estimate> {
     rows.chunks(passes.max(1))
         .map(|group| {
             let poses: Vec<Pose> = group.iter().map(|r| coding.decode(r)).collect();
-            let (pose, sigma_pos_m, sigma_rot_deg) = mean_pose(&poses);
+            let (pose, sigma_mc, sigma_rot_deg) = mean_pose(&poses);
+            let sigma_pos_m = (sigma_mc.powi(2) + aleatoric_variance(coding, group)).sqrt();
             Estimate {
                 pose,
                 pose3: (coding.task == Task::Pose3).then(|| pose.to_pose3(coding.mount)),
@@ -243,6 +265,30 @@ pub fn mean_pose(poses: &[Pose]) -> (Pose, f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn scale_outputs_add_their_variance() {
+        let coding = PoseCoding {
+            task: Task::Pose3,
+            pos_mean: vec![0.0, 0.0],
+            pos_std: vec![1.0, 1.0],
+            mount: geom::Mount::Ceiling,
+            z: 2.5,
+        };
+        // One pass, s = ln 0.5: E‖e‖² = d(d + 1)·b² = 6 · 0.25 in the plane.
+        let row = vec![1.0, 2.0, 0.0, 1.0, 0.5f32.ln()];
+        let est = &estimates(&coding, std::slice::from_ref(&row), 1)[0];
+        assert!((est.sigma_pos_m - 1.5f64.sqrt()).abs() < 1e-6, "{est:?}");
+        assert_eq!(est.sigma_rot_deg, 0.0);
+        // Two passes 2 m apart: MC variance 1 m² on top of the scale's.
+        let mut moved = row.clone();
+        moved[0] = 3.0;
+        let est = &estimates(&coding, &[row.clone(), moved], 2)[0];
+        assert!((est.sigma_pos_m - 2.5f64.sqrt()).abs() < 1e-6, "{est:?}");
+        // Without the column, nothing is added.
+        let est = &estimates(&coding, &[row[..4].to_vec()], 1)[0];
+        assert_eq!(est.sigma_pos_m, 0.0);
+    }
 
     #[test]
     fn mean_pose_of_spread_samples() -> geom::Result<()> {

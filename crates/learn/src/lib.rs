@@ -40,7 +40,7 @@ pub mod train;
 pub use error::{LearnError, Result};
 pub use head::{PoseCoding, Task};
 pub use infer::{Estimate, Localizer};
-pub use net::{Arch, NetConfig, PoseNet};
+pub use net::{Arch, HeadConfig, NetConfig, PoseNet};
 pub use train::{
     EpochMetrics, OptimizerKind, Schedule, TrainConfig, TrainEvent, TrainSummary, train,
 };

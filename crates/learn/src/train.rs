@@ -24,7 +24,7 @@ use crate::dataset::{self, Samples, TrainData};
 use crate::head::{PoseCoding, Task};
 use crate::infer;
 use crate::loss::pose_loss;
-use crate::net::{Arch, NetConfig, PoseNet, mc};
+use crate::net::{Arch, HeadConfig, NetConfig, PoseNet};
 use crate::{LearnError, Result};
 
 /// The optimizer.
@@ -113,8 +113,16 @@ pub struct TrainConfig {
     pub beta: f64,
     /// Learn the weighting of the two loss parts instead of using β.
     pub learned_weighting: bool,
-    /// Dropout probability on the pooled features (also used by MC inference).
+    /// Dropout probability on the pooled features and the hidden layer (also used by MC
+    /// inference).
     pub dropout: f64,
+    /// Width of the hidden layer of the head; 0: a single linear layer.
+    #[serde(default)]
+    pub hidden: usize,
+    /// Predict a per-image position-error scale and train it by its likelihood
+    /// ([`crate::net::HeadConfig::aleatoric`]).
+    #[serde(default)]
+    pub aleatoric: bool,
     /// Stop after this many epochs without a better validation median position error.
     pub patience: Option<usize>,
     /// Seed of initialisation, shuffling and dropout.
@@ -126,7 +134,8 @@ pub struct TrainConfig {
 impl TrainConfig {
     /// Defaults: small network, 30 epochs, batch 32, AdamW at 1e-3 with weight decay 1e-4 and a
     /// cosine schedule, β = 10 (indoors a 0.1 m error and a 5° error weigh about the same),
-    /// dropout 0.2, patience 10, seed 0.
+    /// dropout 0.2, a 1024-wide hidden layer in the head, a per-image error scale (aleatoric),
+    /// patience 10, seed 0.
     pub fn new(data: impl Into<PathBuf>, out: impl Into<PathBuf>) -> TrainConfig {
         TrainConfig {
             data: data.into(),
@@ -146,6 +155,8 @@ impl TrainConfig {
             beta: 10.0,
             learned_weighting: false,
             dropout: 0.2,
+            hidden: 1024,
+            aleatoric: true,
             patience: Some(10),
             seed: 0,
             resume: false,
@@ -177,6 +188,11 @@ impl TrainConfig {
         }
         if !(0.0..1.0).contains(&self.dropout) {
             return bad(format!("dropout {} must be in [0, 1)", self.dropout));
+        }
+        if self.aleatoric && self.learned_weighting {
+            return bad(
+                "the per-image scale (aleatoric) already weighs the position term; use it or learned weighting, not both".into(),
+            );
         }
         match self.schedule {
             Schedule::Cosine { final_fraction } if !(0.0..=1.0).contains(&final_fraction) => bad(
@@ -395,6 +411,10 @@ fn fresh(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device) 
         channels: data.train.channels,
         outputs: task.outputs(),
         learned_weighting: cfg.learned_weighting,
+        head: HeadConfig {
+            hidden: cfg.hidden,
+            aleatoric: cfg.aleatoric,
+        },
     };
     let net = net_cfg.init(device, cfg.seed)?;
     let meta = ModelMeta {
@@ -491,7 +511,7 @@ fn resume(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device)
 /// The settings a resume compares, in one line for the error message.
 fn settings_text(c: &TrainConfig, task: Task) -> String {
     format!(
-        "task {task}, arch {}, batch {}, lr {}, {:?}, {:?}, weight decay {}, beta {}, learned weighting {}, dropout {}, seed {}, max steps {:?}",
+        "task {task}, arch {}, batch {}, lr {}, {:?}, {:?}, weight decay {}, beta {}, learned weighting {}, dropout {}, hidden {}, aleatoric {}, seed {}, max steps {:?}",
         c.arch,
         c.batch_size,
         c.lr,
@@ -501,6 +521,8 @@ fn settings_text(c: &TrainConfig, task: Task) -> String {
         c.beta,
         c.learned_weighting,
         c.dropout,
+        c.hidden,
+        c.aleatoric,
         c.seed,
         c.max_steps_per_epoch
     )
@@ -555,7 +577,6 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
     }
     let coding = meta.coding.clone();
     let targets: Vec<Vec<f32>> = data.train.poses.iter().map(|p| coding.target(p)).collect();
-    let features = meta.net.arch.features();
     let batch_size = cfg.batch_size.min(data.train.len());
     let mut steps = data.train.len() / batch_size;
     if let Some(cap) = cfg.max_steps_per_epoch {
@@ -574,8 +595,7 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
         for step in 0..steps {
             let idx = &order[step * batch_size..(step + 1) * batch_size];
             let (x, y) = batch(&data.train, &targets, idx, &device);
-            let mask = mc::mask_tensor(idx.len(), features, cfg.dropout, &mut rng, &device);
-            let out = net.forward_masked(x, mask);
+            let out = net.forward_dropout(x, cfg.dropout, &mut rng);
             let parts = pose_loss(&coding, out, y, cfg.beta, net.log_vars());
             let grads = GradientsParams::from_grads(parts.total.backward(), &net);
             let loss: f64 = parts.total.into_scalar::<f32>() as f64;

@@ -19,6 +19,9 @@ fn tiny_config(data: &Path, out: &Path, epochs: usize) -> TrainConfig {
     cfg.lr = 3e-3;
     cfg.schedule = Schedule::Constant;
     cfg.beta = 1.0;
+    // A loss that is a plain error, so that "the loss falls" means what it says; the per-image
+    // scale (whose likelihood can be negative) has its own test.
+    cfg.aleatoric = false;
     cfg.seed = 7;
     cfg
 }
@@ -262,6 +265,31 @@ fn mc_dropout_gives_uncertainty_deterministically_and_pose3_gives_level_ceiling_
 }
 
 #[test]
+fn the_per_image_scale_gives_uncertainty_without_mc_passes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    common::make_dataset(&data, 6, 8);
+    let out = tmp.path().join("model");
+    let mut cfg = tiny_config(&data, &out, 2);
+    cfg.hidden = 32;
+    cfg.aleatoric = true;
+    assert!(TrainConfig::new(&data, &out).aleatoric, "on by default");
+    run(&cfg);
+    let loc = Localizer::load(&out).unwrap();
+    assert!(loc.meta().net.head.aleatoric);
+    let img = image::open(data.join("frames/000003.png")).unwrap();
+    let plain = loc.predict(&img, 0).unwrap();
+    assert_eq!(plain.passes, 0);
+    assert!(
+        plain.sigma_pos_m.is_finite() && plain.sigma_pos_m > 0.0,
+        "{plain:?}"
+    );
+    assert!(plain.sigma_rot_deg < 1e-9, "{plain:?}");
+    let mc = loc.predict(&img, 8).unwrap();
+    assert!(mc.sigma_pos_m > 0.0 && mc.sigma_rot_deg > 0.0, "{mc:?}");
+}
+
+#[test]
 fn bad_configurations_and_datasets_are_errors() {
     let tmp = tempfile::tempdir().unwrap();
     let data = tmp.path().join("data");
@@ -273,6 +301,11 @@ fn bad_configurations_and_datasets_are_errors() {
         train(&cfg, &mut |_| {}),
         Err(LearnError::Config(_))
     ));
+    let mut cfg = tiny_config(&data, &out, 1);
+    cfg.learned_weighting = true;
+    cfg.aleatoric = true;
+    let err = train(&cfg, &mut |_| {}).unwrap_err();
+    assert!(err.to_string().contains("learned weighting"), "{err}");
     let mut cfg = tiny_config(&data, &out, 1);
     cfg.view = Some("resize=0x3".into());
     assert!(matches!(

@@ -24,7 +24,8 @@ pub struct TrainArgs {
     /// the dataset's dof.
     #[arg(long)]
     task: Option<Task>,
-    /// Backbone: small (fast) or resnet18.
+    /// Backbone: small (fast), resnet18, resnet34 or googlenet (GoogLeNet + BatchNorm up to its
+    /// first auxiliary classifier, as ceiling-camera work uses).
     #[arg(long, default_value = "small")]
     arch: Arch,
     /// Input view: a preset (gray160, rgb256, ...) or spec text; default gray160 for pose3,
@@ -55,9 +56,18 @@ pub struct TrainArgs {
     /// Learn the weighting of position and rotation loss (homoscedastic uncertainty) instead of β.
     #[arg(long)]
     learned_weighting: bool,
-    /// Dropout on the pooled features (also the MC-dropout rate at inference).
+    /// Dropout on the pooled features and the hidden layer (also the MC-dropout rate at
+    /// inference).
     #[arg(long, default_value_t = 0.2)]
     dropout: f64,
+    /// Width of a hidden layer in the head (0: one linear layer, as torch_apr.py).
+    #[arg(long, default_value_t = 1024)]
+    hidden: usize,
+    /// Also predict each image's position-error scale (aleatoric uncertainty, trained by its
+    /// likelihood); it adds to sigma_pos_m at inference. Default: true, unless
+    /// --learned-weighting is given (the two weigh the position term in different ways).
+    #[arg(long, action = clap::ArgAction::Set, value_name = "BOOL")]
+    aleatoric: Option<bool>,
     /// Stop after this many epochs without a better validation median position error.
     #[arg(long, default_value_t = 10)]
     patience: usize,
@@ -95,6 +105,8 @@ impl TrainArgs {
         cfg.beta = self.beta;
         cfg.learned_weighting = self.learned_weighting;
         cfg.dropout = self.dropout;
+        cfg.hidden = self.hidden;
+        cfg.aleatoric = self.aleatoric.unwrap_or(!self.learned_weighting);
         cfg.patience = Some(self.patience);
         cfg.seed = self.seed;
         cfg.resume = self.resume;

@@ -20,21 +20,38 @@ pub fn dropout_mask(rows: usize, cols: usize, p: f64, rng: &mut ChaCha8Rng) -> V
         .collect()
 }
 
-/// [`dropout_mask`] as a tensor on `device`.
-pub fn mask_tensor(
+/// One mask `[rows, width]` per layer width in `widths`, drawn `group` rows at a time: for each
+/// group, its rows of every layer, then the next group. With `group` = the Monte-Carlo passes
+/// per image, an image's masks are the same whatever else is in its batch.
+pub fn group_masks(
     rows: usize,
-    cols: usize,
+    group: usize,
+    widths: &[usize],
     p: f64,
     rng: &mut ChaCha8Rng,
     device: &Device,
-) -> Tensor<2> {
-    let mask = dropout_mask(rows, cols, p, rng);
-    Tensor::from_data(TensorData::new(mask, [rows, cols]), device)
+) -> Vec<Tensor<2>> {
+    let group = group.max(1);
+    let mut values: Vec<Vec<f32>> = widths
+        .iter()
+        .map(|w| Vec::with_capacity(rows * w))
+        .collect();
+    for start in (0..rows).step_by(group) {
+        let n = group.min(rows - start);
+        for (layer, &w) in values.iter_mut().zip(widths) {
+            layer.extend(dropout_mask(n, w, p, rng));
+        }
+    }
+    values
+        .into_iter()
+        .zip(widths)
+        .map(|(v, &w)| Tensor::from_data(TensorData::new(v, [rows, w]), device))
+        .collect()
 }
 
 /// `passes` stochastic outputs per image in one batch: `[B, C, H, W] -> [B * passes, outputs]`,
 /// rows `b * passes .. (b + 1) * passes` belonging to image `b`. The backbone runs once per
-/// image; only the pooled features are repeated and masked.
+/// image; only the pooled features are repeated and sent through the masked head.
 pub fn mc_outputs(
     net: &PoseNet,
     x: Tensor<4>,
@@ -48,8 +65,7 @@ pub fn mc_outputs(
         .unsqueeze_dim::<3>(1)
         .repeat_dim(1, passes)
         .reshape([b * passes, f]);
-    let mask = mask_tensor(b * passes, f, p, rng, &repeated.device());
-    net.head(repeated * mask)
+    net.head(repeated, p, passes, rng)
 }
 
 #[cfg(test)]

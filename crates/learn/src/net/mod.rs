@@ -1,12 +1,15 @@
-//! The networks: a backbone ([`Arch`]), global average pooling, and one linear head whose input
-//! can be masked for dropout.
+//! The networks: a backbone ([`Arch`]), global average pooling, and a head ([`HeadConfig`]):
+//! one linear layer (as `torch_apr.py`), or a hidden fully connected layer before it, with an
+//! optional extra output for a per-image position scale (aleatoric uncertainty).
 //!
-//! Dropout is an explicit inverted-Bernoulli mask on the pooled features ([`mc`]) rather than
-//! burn's `Dropout`, which is a no-op outside autodiff training: the same mask code serves
-//! training and Monte-Carlo inference, and N stochastic passes run as one batch (the pooled
-//! features are computed once, repeated N times, masked, and sent through the head together).
+//! Dropout is an explicit inverted-Bernoulli mask ([`mc`]) on the pooled features and on the
+//! hidden layer, rather than burn's `Dropout`, which is a no-op outside autodiff training: the
+//! same mask code serves training and Monte-Carlo inference, and N stochastic passes run as one
+//! batch (the pooled features are computed once, repeated N times, and sent through the masked
+//! head together).
 
 mod conv;
+mod inception;
 pub mod mc;
 mod resnet;
 mod small;
@@ -22,8 +25,10 @@ use burn::tensor::{Device, Tensor};
 use serde::{Deserialize, Serialize};
 
 use crate::{LearnError, Result};
+use rand_chacha::ChaCha8Rng;
 
-pub use resnet::{RESNET_FEATURES, ResNet};
+pub use inception::{INCEPTION_FEATURES, InceptionNet};
+pub use resnet::{RESNET_FEATURES, RESNET18_BLOCKS, RESNET34_BLOCKS, ResNet};
 pub use small::{SMALL_CHANNELS, SmallNet};
 
 /// Which backbone a [`PoseNet`] uses.
@@ -34,41 +39,56 @@ pub enum Arch {
     Small,
     /// torchvision's ResNet-18 layout.
     Resnet18,
+    /// torchvision's ResNet-34 layout.
+    Resnet34,
+    /// GoogLeNet with BatchNorm, cut at its first auxiliary classifier (after inception 4a).
+    Googlenet,
 }
 
 impl Arch {
-    /// Names accepted by [`Arch::from_str`].
-    pub const NAMES: &'static [&'static str] = &["small", "resnet18"];
+    /// Every backbone.
+    pub const ALL: [Arch; 4] = [Arch::Small, Arch::Resnet18, Arch::Resnet34, Arch::Googlenet];
 
     /// Width of the pooled feature vector.
     pub fn features(self) -> usize {
         match self {
             Arch::Small => SMALL_CHANNELS[SMALL_CHANNELS.len() - 1],
-            Arch::Resnet18 => RESNET_FEATURES,
+            Arch::Resnet18 | Arch::Resnet34 => RESNET_FEATURES,
+            Arch::Googlenet => INCEPTION_FEATURES,
+        }
+    }
+
+    /// The name [`Arch::from_str`] accepts.
+    pub fn name(self) -> &'static str {
+        match self {
+            Arch::Small => "small",
+            Arch::Resnet18 => "resnet18",
+            Arch::Resnet34 => "resnet34",
+            Arch::Googlenet => "googlenet",
         }
     }
 }
 
 impl fmt::Display for Arch {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Arch::Small => "small",
-            Arch::Resnet18 => "resnet18",
-        })
+        f.write_str(self.name())
     }
 }
 
 impl FromStr for Arch {
     type Err = LearnError;
     fn from_str(s: &str) -> Result<Self> {
-        match s.trim() {
-            "small" => Ok(Arch::Small),
-            "resnet18" => Ok(Arch::Resnet18),
-            other => Err(LearnError::Config(format!(
-                "unknown architecture '{other}'; known: {}",
-                Arch::NAMES.join(", ")
-            ))),
-        }
+        let name = s.trim();
+        Arch::ALL
+            .into_iter()
+            .find(|a| a.name() == name)
+            .ok_or_else(|| {
+                let known: Vec<&str> = Arch::ALL.iter().map(|a| a.name()).collect();
+                LearnError::Config(format!(
+                    "unknown architecture '{name}'; known: {}",
+                    known.join(", ")
+                ))
+            })
     }
 }
 
@@ -79,11 +99,38 @@ pub struct NetConfig {
     pub arch: Arch,
     /// Input channels: 1 (grey) or 3 (RGB).
     pub channels: usize,
-    /// Outputs of the head (7 for 6-DoF poses, 4 for 3-DoF).
+    /// Pose outputs (7 for 6-DoF poses, 4 for 3-DoF); the head may add one
+    /// ([`HeadConfig::aleatoric`]).
     pub outputs: usize,
     /// With the learned loss weighting, the network also holds the two log-variances
     /// `s_x, s_q` (trained with it, saved with it).
     pub learned_weighting: bool,
+    /// The head on the pooled features.
+    #[serde(default)]
+    pub head: HeadConfig,
+}
+
+/// The head of a [`PoseNet`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct HeadConfig {
+    /// Width of a hidden fully connected layer (ReLU, dropout) between the pooled features and
+    /// the outputs, as PoseNet's 2048-wide layer; 0: none, a single linear layer as
+    /// `torch_apr.py` has.
+    #[serde(default)]
+    pub hidden: usize,
+    /// One more output, `s = ln b`: the scale of the image's position error (a Laplace-like
+    /// density `∝ exp(−‖e‖ / b)`), trained by its negative log-likelihood. The network says how
+    /// sure it is of each image (aleatoric uncertainty: repeated doors, blank walls), which
+    /// Monte-Carlo dropout alone, measuring only the model's own spread, does not see.
+    #[serde(default)]
+    pub aleatoric: bool,
+}
+
+impl HeadConfig {
+    /// Outputs of the last layer for a task with `outputs` pose outputs.
+    pub fn outputs(&self, outputs: usize) -> usize {
+        outputs + usize::from(self.aleatoric)
+    }
 }
 
 impl NetConfig {
@@ -110,12 +157,23 @@ impl NetConfig {
         device.seed(seed);
         let backbone = match self.arch {
             Arch::Small => Backbone::Small(SmallNet::new(self.channels, device)),
-            Arch::Resnet18 => Backbone::ResNet(ResNet::resnet18(self.channels, device)),
+            Arch::Resnet18 => Backbone::ResNet(ResNet::new(self.channels, RESNET18_BLOCKS, device)),
+            Arch::Resnet34 => Backbone::ResNet(ResNet::new(self.channels, RESNET34_BLOCKS, device)),
+            Arch::Googlenet => Backbone::Inception(InceptionNet::new(self.channels, device)),
+        };
+        let features = self.arch.features();
+        let hidden = (self.head.hidden > 0)
+            .then(|| LinearConfig::new(features, self.head.hidden).init(device));
+        let head_in = if self.head.hidden > 0 {
+            self.head.hidden
+        } else {
+            features
         };
         let net = PoseNet {
             backbone,
             pool: AdaptiveAvgPool2dConfig::new([1, 1]).init(),
-            head: LinearConfig::new(self.arch.features(), self.outputs).init(device),
+            hidden,
+            head: LinearConfig::new(head_in, self.head.outputs(self.outputs)).init(device),
             // Kendall & Cipolla (2017) start at s_x = 0, s_q = -3.
             log_vars: self
                 .learned_weighting
@@ -171,8 +229,10 @@ impl ModuleVisitor for CountTrainable {
 pub enum Backbone {
     /// The small network.
     Small(SmallNet),
-    /// ResNet-18.
+    /// ResNet-18 or ResNet-34.
     ResNet(ResNet),
+    /// The GoogLeNet-style network.
+    Inception(InceptionNet),
 }
 
 impl Backbone {
@@ -180,38 +240,78 @@ impl Backbone {
         match self {
             Backbone::Small(n) => n.forward(x),
             Backbone::ResNet(n) => n.forward(x),
+            Backbone::Inception(n) => n.forward(x),
         }
     }
 }
 
-/// A pose-regression network: backbone, global average pool, linear head.
+/// A pose-regression network: backbone, global average pool, optional hidden layer, linear
+/// output layer.
 #[derive(Module, Debug)]
 pub struct PoseNet {
     backbone: Backbone,
     pool: AdaptiveAvgPool2d,
+    hidden: Option<Linear>,
     head: Linear,
     log_vars: Option<Param<Tensor<1>>>,
 }
 
 impl PoseNet {
-    /// Pooled features `[B, F]` of a batch `[B, C, H, W]`.
-    pub fn features(&self, x: Tensor<4>) -> Tensor<2> {
-        self.pool.forward(self.backbone.forward(x)).flatten(1, 3)
+    /// The backbone's feature map `[B, F, h, w]` of a batch `[B, C, H, W]`.
+    pub fn feature_map(&self, x: Tensor<4>) -> Tensor<4> {
+        self.backbone.forward(x)
     }
 
-    /// The head applied to features `[B, F] -> [B, outputs]`.
-    pub fn head(&self, features: Tensor<2>) -> Tensor<2> {
-        self.head.forward(features)
+    /// Pooled features `[B, F]` of a batch `[B, C, H, W]`.
+    pub fn features(&self, x: Tensor<4>) -> Tensor<2> {
+        self.pool.forward(self.feature_map(x)).flatten(1, 3)
+    }
+
+    /// The head applied to features `[B, F] -> [B, outputs]`, with dropout of probability `p`
+    /// on the features and on the hidden layer; `p = 0` draws nothing. Masks are drawn from
+    /// `rng` for `group` consecutive rows at a time, every layer's rows of one group before the
+    /// next group's (see [`mc::group_masks`]), so that an image's Monte-Carlo passes do not
+    /// depend on the other images of its batch.
+    pub fn head(
+        &self,
+        features: Tensor<2>,
+        p: f64,
+        group: usize,
+        rng: &mut ChaCha8Rng,
+    ) -> Tensor<2> {
+        let [rows, width] = features.dims();
+        let device = features.device();
+        let mut widths = vec![width];
+        widths.extend(self.hidden.as_ref().map(|h| h.weight.dims()[1]));
+        let mut masks = if p > 0.0 {
+            mc::group_masks(rows, group, &widths, p, rng, &device)
+        } else {
+            Vec::new()
+        }
+        .into_iter();
+        let mut drop = |x: Tensor<2>| match masks.next() {
+            Some(mask) => x * mask,
+            None => x,
+        };
+        let mut x = drop(features);
+        if let Some(hidden) = &self.hidden {
+            x = drop(burn::tensor::activation::relu(hidden.forward(x)));
+        }
+        self.head.forward(x)
     }
 
     /// Outputs without dropout, `[B, C, H, W] -> [B, outputs]`.
     pub fn forward(&self, x: Tensor<4>) -> Tensor<2> {
-        self.head(self.features(x))
+        self.head.forward(match &self.hidden {
+            Some(hidden) => burn::tensor::activation::relu(hidden.forward(self.features(x))),
+            None => self.features(x),
+        })
     }
 
-    /// Outputs with a dropout mask on the pooled features (`mask`: `[B, F]`, see [`mc`]).
-    pub fn forward_masked(&self, x: Tensor<4>, mask: Tensor<2>) -> Tensor<2> {
-        self.head(self.features(x) * mask)
+    /// Outputs with dropout of probability `p` in the head, masks drawn row by row (see
+    /// [`PoseNet::head`]).
+    pub fn forward_dropout(&self, x: Tensor<4>, p: f64, rng: &mut ChaCha8Rng) -> Tensor<2> {
+        self.head(self.features(x), p, 1, rng)
     }
 
     /// The learned loss log-variances `[s_x, s_q]`, when the network has them.
@@ -237,6 +337,7 @@ mod tests {
             channels,
             outputs: 7,
             learned_weighting: false,
+            head: HeadConfig::default(),
         }
     }
 
@@ -258,6 +359,22 @@ mod tests {
         assert_eq!(
             config(Arch::Small, 3).init(&device, 0)?.trainable_params(),
             981_031
+        );
+        // torchvision's resnet34 has 21,797,672 with 3 channels and 1000 classes: less the
+        // classifier (513,000) and two stem input channels (6,272), plus a 7-output head.
+        assert_eq!(
+            config(Arch::Resnet34, 1)
+                .init(&device, 0)?
+                .trainable_params(),
+            21_281_991
+        );
+        // The same layers built in PyTorch (BN after every conv, 5x5 branches): 1,048,704 in
+        // the body, plus the head.
+        assert_eq!(
+            config(Arch::Googlenet, 1)
+                .init(&device, 0)?
+                .trainable_params(),
+            1_052_295
         );
         let learned = NetConfig {
             learned_weighting: true,
@@ -281,6 +398,29 @@ mod tests {
         .valid();
         let y = resnet.forward(Tensor::zeros([1, 3, 64, 64], &device));
         assert_eq!(y.dims(), [1, 4]);
+        let googlenet = config(Arch::Googlenet, 1).init(&device, 0)?.valid();
+        let y = googlenet.forward(Tensor::zeros([2, 1, 60, 80], &device));
+        assert_eq!(y.dims(), [2, 7]);
+        // Max pools round up as PyTorch's ceil_mode: the same layers there give
+        // [1, 512, 7, 10] and [2, 512, 3, 5].
+        let map = |h, w, b| {
+            googlenet
+                .feature_map(Tensor::zeros([b, 1, h, w], &device))
+                .dims()
+        };
+        assert_eq!(map(120, 160, 1), [1, 512, 7, 10]);
+        assert_eq!(map(60, 80, 2), [2, 512, 3, 5]);
+        let head = NetConfig {
+            head: HeadConfig {
+                hidden: 16,
+                aleatoric: true,
+            },
+            ..config(Arch::Small, 1)
+        }
+        .init(&device, 0)?
+        .valid();
+        let y = head.forward(Tensor::zeros([3, 1, 32, 32], &device));
+        assert_eq!(y.dims(), [3, 8]);
         assert!(config(Arch::Small, 2).init(&device, 0).is_err());
         Ok(())
     }
@@ -303,8 +443,8 @@ mod tests {
 
     #[test]
     fn names_parse() -> Result<()> {
-        for name in Arch::NAMES {
-            assert_eq!(name.parse::<Arch>()?.to_string(), *name);
+        for arch in Arch::ALL {
+            assert_eq!(arch.name().parse::<Arch>()?, arch);
         }
         assert!("vgg".parse::<Arch>().is_err());
         Ok(())

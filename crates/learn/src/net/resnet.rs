@@ -1,5 +1,6 @@
-//! ResNet-18 in torchvision's layout (BasicBlock, `[2, 2, 2, 2]`), as `torch_apr.py --arch
-//! resnet18`: a `7x7/2` stem, `3x3/2` max pool, four stages of two basic blocks, 512 features.
+//! ResNet-18 and ResNet-34 in torchvision's layout (BasicBlock, `[2, 2, 2, 2]` and
+//! `[3, 4, 6, 3]`; ResNet-18 as `torch_apr.py --arch resnet18`): a `7x7/2` stem, `3x3/2` max
+//! pool, four stages of basic blocks, 512 features.
 
 use burn::module::Module;
 use burn::nn::PaddingConfig2d;
@@ -9,8 +10,13 @@ use burn::tensor::{Device, Tensor};
 
 use super::conv::ConvBn;
 
-/// Output channels and stride of the first block of each ResNet-18 stage.
+/// Output channels and stride of the first block of each stage.
 const STAGES: [(usize, usize); 4] = [(64, 1), (128, 2), (256, 2), (512, 2)];
+
+/// Basic blocks per stage of ResNet-18.
+pub const RESNET18_BLOCKS: [usize; 4] = [2, 2, 2, 2];
+/// Basic blocks per stage of ResNet-34.
+pub const RESNET34_BLOCKS: [usize; 4] = [3, 4, 6, 3];
 
 /// Features after the last stage.
 pub const RESNET_FEATURES: usize = 512;
@@ -45,7 +51,7 @@ impl BasicBlock {
     }
 }
 
-/// The ResNet-18 body (pooling and head live in [`super::PoseNet`]).
+/// The ResNet body (pooling and head live in [`super::PoseNet`]).
 #[derive(Module, Debug)]
 pub struct ResNet {
     stem: ConvBn,
@@ -54,13 +60,16 @@ pub struct ResNet {
 }
 
 impl ResNet {
-    /// ResNet-18 for `channels` input channels.
-    pub fn resnet18(channels: usize, device: &Device) -> Self {
-        let mut blocks = Vec::with_capacity(8);
+    /// A ResNet with `per_stage` basic blocks in each of the four stages
+    /// ([`RESNET18_BLOCKS`], [`RESNET34_BLOCKS`]) for `channels` input channels.
+    pub fn new(channels: usize, per_stage: [usize; 4], device: &Device) -> Self {
+        let mut blocks = Vec::with_capacity(per_stage.iter().sum());
         let mut cin = 64;
-        for (cout, stride) in STAGES {
+        for ((cout, stride), count) in STAGES.into_iter().zip(per_stage) {
             blocks.push(BasicBlock::new(cin, cout, stride, device));
-            blocks.push(BasicBlock::new(cout, cout, 1, device));
+            for _ in 1..count {
+                blocks.push(BasicBlock::new(cout, cout, 1, device));
+            }
             cin = cout;
         }
         ResNet {

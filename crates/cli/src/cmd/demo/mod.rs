@@ -69,6 +69,12 @@ pub struct DemoArgs {
     /// Override the number of training epochs.
     #[arg(long)]
     epochs: Option<usize>,
+    /// Width of the hidden layer of the network's head (0: one linear layer).
+    #[arg(long, default_value_t = 1024)]
+    hidden: usize,
+    /// Predict each image's position-error scale (aleatoric uncertainty) beside the pose.
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set, value_name = "BOOL")]
+    aleatoric: bool,
     /// Monte-Carlo-dropout passes per test frame.
     #[arg(long, default_value_t = 16)]
     mc: usize,
@@ -142,6 +148,8 @@ fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
         final_fraction: 0.02,
     };
     train.patience = None;
+    train.hidden = args.hidden;
+    train.aleatoric = args.aleatoric;
     train.seed = args.seed;
     train.resume = true;
     Setup { scene, train }
