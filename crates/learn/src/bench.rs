@@ -26,6 +26,7 @@ fn net_config(arch: Arch, channels: usize) -> NetConfig {
         outputs: Task::Pose6.outputs(),
         learned_weighting: false,
         head: HeadConfig::default(),
+        split: false,
     }
 }
 

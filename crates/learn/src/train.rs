@@ -123,6 +123,9 @@ pub struct TrainConfig {
     /// ([`crate::net::HeadConfig::aleatoric`]).
     #[serde(default)]
     pub aleatoric: bool,
+    /// Two networks, one for the position and one for the rotation ([`NetConfig::split`]).
+    #[serde(default)]
+    pub split: bool,
     /// Stop after this many epochs without a better validation median position error.
     pub patience: Option<usize>,
     /// Seed of initialisation, shuffling and dropout.
@@ -157,6 +160,7 @@ impl TrainConfig {
             dropout: 0.2,
             hidden: 1024,
             aleatoric: true,
+            split: false,
             patience: Some(10),
             seed: 0,
             resume: false,
@@ -415,6 +419,7 @@ fn fresh(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device) 
             hidden: cfg.hidden,
             aleatoric: cfg.aleatoric,
         },
+        split: cfg.split,
     };
     let net = net_cfg.init(device, cfg.seed)?;
     let meta = ModelMeta {
@@ -511,7 +516,7 @@ fn resume(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device)
 /// The settings a resume compares, in one line for the error message.
 fn settings_text(c: &TrainConfig, task: Task) -> String {
     format!(
-        "task {task}, arch {}, batch {}, lr {}, {:?}, {:?}, weight decay {}, beta {}, learned weighting {}, dropout {}, hidden {}, aleatoric {}, seed {}, max steps {:?}",
+        "task {task}, arch {}, batch {}, lr {}, {:?}, {:?}, weight decay {}, beta {}, learned weighting {}, dropout {}, hidden {}, aleatoric {}, split {}, seed {}, max steps {:?}",
         c.arch,
         c.batch_size,
         c.lr,
@@ -523,6 +528,7 @@ fn settings_text(c: &TrainConfig, task: Task) -> String {
         c.dropout,
         c.hidden,
         c.aleatoric,
+        c.split,
         c.seed,
         c.max_steps_per_epoch
     )

@@ -290,6 +290,29 @@ fn the_per_image_scale_gives_uncertainty_without_mc_passes() {
 }
 
 #[test]
+fn two_networks_train_and_localize_a_ceiling_camera() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    common::make_dataset(&data, 3, 8);
+    let out = tmp.path().join("model");
+    let mut cfg = tiny_config(&data, &out, 3);
+    cfg.view = Some("gray,resize=32x24".into());
+    cfg.hidden = 32;
+    cfg.split = true;
+    let (summary, events) = run(&cfg);
+    let losses = step_losses(&events);
+    let (head, tail) = (losses[0], losses[losses.len() - 1]);
+    assert!(tail < head, "loss did not fall: {head} -> {tail}");
+    let loc = Localizer::load(&summary.out).unwrap();
+    assert!(loc.meta().net.split);
+    let img = image::open(data.join("frames/000003.png")).unwrap();
+    let est = loc.predict(&img, 8).unwrap();
+    assert!(est.pose3.is_some() && est.sigma_pos_m > 0.0, "{est:?}");
+    let (pos, _) = val_errors(&loc, &data);
+    assert!((pos - summary.val_median_pos_m).abs() < 1e-3);
+}
+
+#[test]
 fn bad_configurations_and_datasets_are_errors() {
     let tmp = tempfile::tempdir().unwrap();
     let data = tmp.path().join("data");

@@ -68,6 +68,10 @@ pub struct TrainArgs {
     /// --learned-weighting is given (the two weigh the position term in different ways).
     #[arg(long, action = clap::ArgAction::Set, value_name = "BOOL")]
     aleatoric: Option<bool>,
+    /// Two networks of the chosen backbone: one for the position, one for the rotation
+    /// (heading), as the ceiling-camera literature does. Twice the cost.
+    #[arg(long)]
+    split: bool,
     /// Stop after this many epochs without a better validation median position error.
     #[arg(long, default_value_t = 10)]
     patience: usize,
@@ -107,6 +111,7 @@ impl TrainArgs {
         cfg.dropout = self.dropout;
         cfg.hidden = self.hidden;
         cfg.aleatoric = self.aleatoric.unwrap_or(!self.learned_weighting);
+        cfg.split = self.split;
         cfg.patience = Some(self.patience);
         cfg.seed = self.seed;
         cfg.resume = self.resume;

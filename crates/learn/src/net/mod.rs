@@ -21,11 +21,14 @@ use std::sync::Mutex;
 use burn::module::{Module, ModuleVisitor, Param};
 use burn::nn::pool::{AdaptiveAvgPool2d, AdaptiveAvgPool2dConfig};
 use burn::nn::{Linear, LinearConfig};
+use burn::tensor::activation::relu;
 use burn::tensor::{Device, Tensor};
 use serde::{Deserialize, Serialize};
 
-use crate::{LearnError, Result};
 use rand_chacha::ChaCha8Rng;
+
+use crate::head::Task;
+use crate::{LearnError, Result};
 
 pub use inception::{INCEPTION_FEATURES, InceptionNet};
 pub use resnet::{RESNET_FEATURES, RESNET18_BLOCKS, RESNET34_BLOCKS, ResNet};
@@ -108,6 +111,22 @@ pub struct NetConfig {
     /// The head on the pooled features.
     #[serde(default)]
     pub head: HeadConfig,
+    /// Two networks of the same layout, one for the position (and its scale) and one for the
+    /// rotation, as the ceiling-camera literature trains a position net and a heading net; the
+    /// two parts then cannot compete for one network's features.
+    #[serde(default)]
+    pub split: bool,
+}
+
+impl NetConfig {
+    /// Position outputs: 2 (x, y) for a 3-DoF head, else up to 3; the rest are the rotation.
+    fn pos_dims(&self) -> usize {
+        if self.outputs == Task::Pose3.outputs() {
+            Task::Pose3.pos_dims()
+        } else {
+            Task::Pose6.pos_dims().min(self.outputs)
+        }
+    }
 }
 
 /// The head of a [`PoseNet`].
@@ -155,25 +174,20 @@ impl NetConfig {
         static INIT: Mutex<()> = Mutex::new(());
         let _guard = INIT.lock().unwrap_or_else(|e| e.into_inner());
         device.seed(seed);
-        let backbone = match self.arch {
-            Arch::Small => Backbone::Small(SmallNet::new(self.channels, device)),
-            Arch::Resnet18 => Backbone::ResNet(ResNet::new(self.channels, RESNET18_BLOCKS, device)),
-            Arch::Resnet34 => Backbone::ResNet(ResNet::new(self.channels, RESNET34_BLOCKS, device)),
-            Arch::Googlenet => Backbone::Inception(InceptionNet::new(self.channels, device)),
-        };
-        let features = self.arch.features();
-        let hidden = (self.head.hidden > 0)
-            .then(|| LinearConfig::new(features, self.head.hidden).init(device));
-        let head_in = if self.head.hidden > 0 {
-            self.head.hidden
-        } else {
-            features
-        };
+        let Branch {
+            backbone,
+            pool,
+            hidden,
+            head,
+        } = Branch::new(self, device);
         let net = PoseNet {
             backbone,
-            pool: AdaptiveAvgPool2dConfig::new([1, 1]).init(),
+            pool,
             hidden,
-            head: LinearConfig::new(head_in, self.head.outputs(self.outputs)).init(device),
+            head,
+            rotation: self.split.then(|| Branch::new(self, device)),
+            pos_dims: self.pos_dims(),
+            rot_dims: self.outputs - self.pos_dims(),
             // Kendall & Cipolla (2017) start at s_x = 0, s_q = -3.
             log_vars: self
                 .learned_weighting
@@ -245,30 +259,144 @@ impl Backbone {
     }
 }
 
-/// A pose-regression network: backbone, global average pool, optional hidden layer, linear
-/// output layer.
+/// One network: backbone, global average pool, optional hidden layer, linear output layer.
+#[derive(Module, Debug)]
+pub struct Branch {
+    backbone: Backbone,
+    pool: AdaptiveAvgPool2d,
+    hidden: Option<Linear>,
+    head: Linear,
+}
+
+impl Branch {
+    fn new(cfg: &NetConfig, device: &Device) -> Branch {
+        let backbone = match cfg.arch {
+            Arch::Small => Backbone::Small(SmallNet::new(cfg.channels, device)),
+            Arch::Resnet18 => Backbone::ResNet(ResNet::new(cfg.channels, RESNET18_BLOCKS, device)),
+            Arch::Resnet34 => Backbone::ResNet(ResNet::new(cfg.channels, RESNET34_BLOCKS, device)),
+            Arch::Googlenet => Backbone::Inception(InceptionNet::new(cfg.channels, device)),
+        };
+        let features = cfg.arch.features();
+        let hidden = cfg.head.hidden;
+        Branch {
+            backbone,
+            pool: AdaptiveAvgPool2dConfig::new([1, 1]).init(),
+            hidden: (hidden > 0).then(|| LinearConfig::new(features, hidden).init(device)),
+            head: LinearConfig::new(
+                if hidden > 0 { hidden } else { features },
+                cfg.head.outputs(cfg.outputs),
+            )
+            .init(device),
+        }
+    }
+
+    fn parts(&self) -> Parts<'_> {
+        Parts {
+            backbone: &self.backbone,
+            pool: &self.pool,
+            hidden: &self.hidden,
+            head: &self.head,
+        }
+    }
+}
+
+/// The layers of one network, borrowed: a [`Branch`], or the first network, whose layers sit
+/// directly in [`PoseNet`] so that its weights keep the names of single-network checkpoints.
+struct Parts<'a> {
+    backbone: &'a Backbone,
+    pool: &'a AdaptiveAvgPool2d,
+    hidden: &'a Option<Linear>,
+    head: &'a Linear,
+}
+
+impl Parts<'_> {
+    fn features(&self, x: Tensor<4>) -> Tensor<2> {
+        self.pool.forward(self.backbone.forward(x)).flatten(1, 3)
+    }
+
+    /// Width of the pooled features.
+    fn backbone_width(&self) -> usize {
+        match self.hidden {
+            Some(hidden) => hidden.weight.dims()[0],
+            None => self.head.weight.dims()[0],
+        }
+    }
+
+    /// Width of the hidden layer, if there is one.
+    fn hidden_width(&self) -> Option<usize> {
+        self.hidden.as_ref().map(|h| h.weight.dims()[1])
+    }
+
+    /// The head on (already masked) features, with `mask` on the hidden layer.
+    fn head(&self, x: Tensor<2>, mask: Option<Tensor<2>>) -> Tensor<2> {
+        let x = match self.hidden {
+            Some(hidden) => {
+                let y = relu(hidden.forward(x));
+                match mask {
+                    Some(mask) => y * mask,
+                    None => y,
+                }
+            }
+            None => x,
+        };
+        self.head.forward(x)
+    }
+}
+
+/// A pose-regression network: one network (backbone, pool, optional hidden layer, output
+/// layer), or two with [`NetConfig::split`], the second ([`Branch`]) for the rotation. Each
+/// network computes every output and the unused ones are dropped (a few hundred weights, for
+/// one code path). Outputs: the position, the rotation, then the scale when the head has one.
 #[derive(Module, Debug)]
 pub struct PoseNet {
     backbone: Backbone,
     pool: AdaptiveAvgPool2d,
     hidden: Option<Linear>,
     head: Linear,
+    rotation: Option<Branch>,
+    pos_dims: usize,
+    rot_dims: usize,
     log_vars: Option<Param<Tensor<1>>>,
 }
 
 impl PoseNet {
-    /// The backbone's feature map `[B, F, h, w]` of a batch `[B, C, H, W]`.
+    /// The first (or only) network.
+    fn main(&self) -> Parts<'_> {
+        Parts {
+            backbone: &self.backbone,
+            pool: &self.pool,
+            hidden: &self.hidden,
+            head: &self.head,
+        }
+    }
+
+    /// The networks, the rotation network last.
+    fn branches(&self) -> impl Iterator<Item = Parts<'_>> {
+        std::iter::once(self.main()).chain(self.rotation.as_ref().map(Branch::parts))
+    }
+
+    /// The (first) backbone's feature map `[B, F, h, w]` of a batch `[B, C, H, W]`.
     pub fn feature_map(&self, x: Tensor<4>) -> Tensor<4> {
         self.backbone.forward(x)
     }
 
-    /// Pooled features `[B, F]` of a batch `[B, C, H, W]`.
+    /// Pooled features `[B, F]` of a batch `[B, C, H, W]` (with two networks, both networks'
+    /// side by side).
     pub fn features(&self, x: Tensor<4>) -> Tensor<2> {
-        self.pool.forward(self.feature_map(x)).flatten(1, 3)
+        match &self.rotation {
+            None => self.main().features(x),
+            Some(rotation) => Tensor::cat(
+                vec![
+                    self.main().features(x.clone()),
+                    rotation.parts().features(x),
+                ],
+                1,
+            ),
+        }
     }
 
     /// The head applied to features `[B, F] -> [B, outputs]`, with dropout of probability `p`
-    /// on the features and on the hidden layer; `p = 0` draws nothing. Masks are drawn from
+    /// on the features and on the hidden layers; `p = 0` draws nothing. Masks are drawn from
     /// `rng` for `group` consecutive rows at a time, every layer's rows of one group before the
     /// next group's (see [`mc::group_masks`]), so that an image's Monte-Carlo passes do not
     /// depend on the other images of its batch.
@@ -280,32 +408,44 @@ impl PoseNet {
         rng: &mut ChaCha8Rng,
     ) -> Tensor<2> {
         let [rows, width] = features.dims();
-        let device = features.device();
+        if p <= 0.0 {
+            return self.head_masked(features, Vec::new());
+        }
         let mut widths = vec![width];
-        widths.extend(self.hidden.as_ref().map(|h| h.weight.dims()[1]));
-        let mut masks = if p > 0.0 {
-            mc::group_masks(rows, group, &widths, p, rng, &device)
-        } else {
-            Vec::new()
-        }
-        .into_iter();
-        let mut drop = |x: Tensor<2>| match masks.next() {
-            Some(mask) => x * mask,
-            None => x,
+        widths.extend(self.branches().filter_map(|b| b.hidden_width()));
+        let masks = mc::group_masks(rows, group, &widths, p, rng, &features.device());
+        self.head_masked(features, masks)
+    }
+
+    /// The head with `masks` (none, or one for the features then one per hidden layer).
+    fn head_masked(&self, features: Tensor<2>, masks: Vec<Tensor<2>>) -> Tensor<2> {
+        let mut masks = masks.into_iter();
+        let features = match masks.next() {
+            Some(mask) => features * mask,
+            None => features,
         };
-        let mut x = drop(features);
-        if let Some(hidden) = &self.hidden {
-            x = drop(burn::tensor::activation::relu(hidden.forward(x)));
+        let main = self.main();
+        let Some(rotation) = &self.rotation else {
+            return main.head(features, masks.next());
+        };
+        let split = main.backbone_width();
+        let [_, width] = features.dims();
+        let pos = main.head(features.clone().narrow(1, 0, split), masks.next());
+        let rot = rotation
+            .parts()
+            .head(features.narrow(1, split, width - split), masks.next());
+        let [_, outputs] = pos.dims();
+        let (d, r) = (self.pos_dims, self.rot_dims);
+        let mut parts = vec![pos.clone().narrow(1, 0, d), rot.narrow(1, d, r)];
+        if outputs > d + r {
+            parts.push(pos.narrow(1, d + r, outputs - d - r));
         }
-        self.head.forward(x)
+        Tensor::cat(parts, 1)
     }
 
     /// Outputs without dropout, `[B, C, H, W] -> [B, outputs]`.
     pub fn forward(&self, x: Tensor<4>) -> Tensor<2> {
-        self.head.forward(match &self.hidden {
-            Some(hidden) => burn::tensor::activation::relu(hidden.forward(self.features(x))),
-            None => self.features(x),
-        })
+        self.head_masked(self.features(x), Vec::new())
     }
 
     /// Outputs with dropout of probability `p` in the head, masks drawn row by row (see
@@ -338,6 +478,7 @@ mod tests {
             outputs: 7,
             learned_weighting: false,
             head: HeadConfig::default(),
+            split: false,
         }
     }
 
@@ -421,6 +562,31 @@ mod tests {
         .valid();
         let y = head.forward(Tensor::zeros([3, 1, 32, 32], &device));
         assert_eq!(y.dims(), [3, 8]);
+        // Two networks: the same outputs, twice the weights.
+        let split = NetConfig {
+            outputs: 4,
+            head: HeadConfig {
+                hidden: 16,
+                aleatoric: true,
+            },
+            split: true,
+            ..config(Arch::Small, 1)
+        };
+        let single = NetConfig {
+            split: false,
+            ..split.clone()
+        };
+        let net = split.init(&device, 0)?;
+        assert_eq!(
+            net.trainable_params(),
+            2 * single.init(&device, 0)?.trainable_params()
+        );
+        let net = net.valid();
+        let x = Tensor::zeros([2, 1, 32, 32], &device);
+        assert_eq!(net.features(x.clone()).dims(), [2, 2 * 256]);
+        assert_eq!(net.forward(x.clone()).dims(), [2, 5]);
+        let mut rng = <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1);
+        assert_eq!(mc::mc_outputs(&net, x, 3, 0.2, &mut rng).dims(), [6, 5]);
         assert!(config(Arch::Small, 2).init(&device, 0).is_err());
         Ok(())
     }

@@ -75,6 +75,9 @@ pub struct DemoArgs {
     /// Predict each image's position-error scale (aleatoric uncertainty) beside the pose.
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set, value_name = "BOOL")]
     aleatoric: bool,
+    /// Two networks, one for the position and one for the rotation (twice the training time).
+    #[arg(long)]
+    split: bool,
     /// Monte-Carlo-dropout passes per test frame.
     #[arg(long, default_value_t = 16)]
     mc: usize,
@@ -150,6 +153,7 @@ fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
     train.patience = None;
     train.hidden = args.hidden;
     train.aleatoric = args.aleatoric;
+    train.split = args.split;
     train.seed = args.seed;
     train.resume = true;
     Setup { scene, train }
