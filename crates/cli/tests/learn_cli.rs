@@ -1,7 +1,7 @@
 //! `indoorloc train` → `localize` → `eval` from the outside, on a tiny rendered dataset: the
 //! checkpoint's stored validation error is what `localize` + `eval` measure again.
 
-use crate::util::{TestResult, indoorloc, json_of};
+use crate::util::{TestResult, indoorloc, json_of, shared_data};
 
 #[test]
 fn train_localize_eval_agree_on_the_validation_error() -> TestResult {
@@ -105,6 +105,55 @@ fn train_localize_eval_agree_on_the_validation_error() -> TestResult {
             .ok_or("no output")?,
     )?;
     assert!(line["sigma_pos_m"].as_f64().ok_or("sigma")? > 0.0);
+
+    // Other tools' layouts: the 7-Scenes sample's test split (sequences 1 and 4, three frames
+    // each) and a Cambridge list, both paired again by `eval`.
+    let scene = shared_data("7scenes_stairs_sample/7scenes_layout");
+    let scene_s = scene.to_str().ok_or("path")?;
+    let seven = dir.path().join("7scenes.jsonl");
+    let seven_s = seven.to_str().ok_or("path")?;
+    let out = indoorloc(&[
+        "localize", "--model", model_s, scene_s, "--split", "test", "--mc", "0", "--out", seven_s,
+    ])?;
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let seqs: Vec<String> = std::fs::read_to_string(&seven)?
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).map(|v| v["seq"].to_string()))
+        .collect::<Result<_, _>>()?;
+    assert_eq!(seqs.len(), 6);
+    assert!(
+        seqs.iter().all(|s| s == "\"seq-01\"" || s == "\"seq-04\""),
+        "{seqs:?}"
+    );
+    let e = json_of(&indoorloc(&[
+        "eval", "--gt", scene_s, "--est", seven_s, "--json",
+    ])?)?;
+    assert_eq!(e["frames"].as_u64(), Some(6));
+    let list = ds.join("dataset_test.txt");
+    std::fs::write(
+        &list,
+        "Visual Landmark Dataset V1\nImageFile, Camera Position [X Y Z W P Q R]\n\n\
+         frames/000000.png 1 2 1.5 1 0 0 0\nframes/000001.png 1.5 2 1.5 1 0 0 0\n",
+    )?;
+    let list_s = list.to_str().ok_or("path")?;
+    let cam = dir.path().join("cambridge.jsonl");
+    let cam_s = cam.to_str().ok_or("path")?;
+    let out = indoorloc(&[
+        "localize", "--model", model_s, list_s, "--mc", "0", "--out", cam_s,
+    ])?;
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let e = json_of(&indoorloc(&[
+        "eval", "--gt", list_s, "--est", cam_s, "--json",
+    ])?)?;
+    assert_eq!(e["frames"].as_u64(), Some(2));
 
     // A corrupt checkpoint is a one-line error naming the file, exit code 2.
     std::fs::write(model.join("model.toml"), "arch = 7\n")?;

@@ -46,7 +46,7 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 /// Suffix of a pose file; the frame name is the file name without it.
-const POSE_SUFFIX: &str = ".pose.txt";
+pub const POSE_SUFFIX: &str = ".pose.txt";
 
 /// The intrinsics customarily used for 7-Scenes RGB images (640x480, f = 525, c = (320, 240),
 /// no distortion). The dataset's files do not store them; its authors give only the depth

@@ -4,8 +4,10 @@
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
+use data::formats::{self, Format};
 use data::frames::{self, FrameSource};
 use data::native::{NativeDataset, SplitName};
+use data::{PoseFrame, cambridge, sevenscenes};
 use learn::{Estimate, Localizer};
 use serde::Serialize;
 use std::io::Write;
@@ -40,7 +42,8 @@ pub struct LocalizeArgs {
     /// Checkpoint folder written by `indoorloc train`.
     #[arg(long, value_name = "MODEL")]
     model: PathBuf,
-    /// An image, an image folder, a video file, or a native dataset folder.
+    /// An image, an image folder, a video file, a native dataset folder, a 7-Scenes scene or
+    /// sequence folder, or a Cambridge list file (dataset_test.txt).
     input: PathBuf,
     /// Monte-Carlo-dropout passes per frame (0: one deterministic pass, no uncertainty).
     #[arg(long, default_value_t = 16)]
@@ -48,7 +51,8 @@ pub struct LocalizeArgs {
     /// Output format.
     #[arg(long, value_enum, default_value_t = OutFormat::Jsonl)]
     format: OutFormat,
-    /// For a native dataset: which split's frames.
+    /// For a native dataset or a 7-Scenes scene (TrainSplit.txt / TestSplit.txt): which
+    /// split's frames.
     #[arg(long, value_enum, default_value_t = Split::All)]
     split: Split,
     /// Write to this file (atomically, when all frames are done) instead of stdout.
@@ -74,7 +78,8 @@ pub struct PoseLine {
     /// 3-DoF pose `[x, y, heading]` for 3-DoF models.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pose3: Option<[f64; 3]>,
-    /// `sqrt(trace Σ_pos)` over the MC passes, metres.
+    /// `sqrt(trace Σ_pos)`, metres: the MC passes' spread plus the model's predicted error
+    /// scale, when it has one.
     pub sigma_pos_m: f64,
     /// RMS rotation of the MC passes about their mean, degrees.
     pub sigma_rot_deg: f64,
@@ -182,9 +187,97 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
     Ok(())
 }
 
-/// The frames of `input`, decoded lazily: a native dataset's frames (of `split`), or any frame
-/// source `data::frames` opens (image, image folder, video).
+/// The frames of a posed collection in another tool's layout, decoded lazily: a 7-Scenes scene
+/// or sequence folder (`frame-NNNNNN.color.png` beside each pose file; `split` from its split
+/// files) or a Cambridge list (image paths relative to the list's folder). `None` for anything
+/// else. Frames keep the reader's names and sequences, so `eval` pairs the output with the
+/// same poses.
+fn posed_frames(input: &Path, split: Split) -> Result<Option<Box<dyn Iterator<Item = Item>>>> {
+    let is_list = input.is_file()
+        && input
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("txt"));
+    if !(input.is_dir() || is_list) {
+        return Ok(None);
+    }
+    let Ok(format) = formats::detect(input) else {
+        return Ok(None);
+    };
+    let (frames, image_of): (Vec<PoseFrame>, Box<dyn Fn(&PoseFrame) -> PathBuf>) = match format {
+        Format::SevenScenes => {
+            let traj = sevenscenes::read(input)?;
+            let keep: Option<Vec<String>> = match split {
+                Split::All => None,
+                Split::Train | Split::Test => {
+                    let s = sevenscenes::read_split(input)?;
+                    Some(if split == Split::Train {
+                        s.train
+                    } else {
+                        s.test
+                    })
+                }
+                Split::Val => bail!(
+                    "{}: 7-Scenes has train and test splits, not val",
+                    input.display()
+                ),
+            };
+            let frames: Vec<PoseFrame> = traj
+                .frames
+                .into_iter()
+                .filter(|f| keep.as_ref().is_none_or(|k| k.contains(&f.seq)))
+                .collect();
+            // A sequence folder holds its frames; a scene folder holds seq-XX folders.
+            let in_seq = frames.first().is_some_and(|f| {
+                input
+                    .join(format!("{}{}", f.name, sevenscenes::POSE_SUFFIX))
+                    .is_file()
+            });
+            let root = input.to_path_buf();
+            (
+                frames,
+                Box::new(move |f: &PoseFrame| {
+                    let dir = if in_seq {
+                        root.clone()
+                    } else {
+                        root.join(&f.seq)
+                    };
+                    dir.join(format!("{}.color.png", f.name))
+                }),
+            )
+        }
+        Format::Cambridge => {
+            if split != Split::All {
+                bail!(
+                    "{}: a Cambridge list is one split already; leave out --split",
+                    input.display()
+                );
+            }
+            let root = input.parent().unwrap_or(Path::new(".")).to_path_buf();
+            (
+                cambridge::read(input)?.frames,
+                Box::new(move |f: &PoseFrame| root.join(&f.name)),
+            )
+        }
+        _ => return Ok(None),
+    };
+    if frames.is_empty() {
+        bail!("{}: the {split:?} split has no frames", input.display());
+    }
+    Ok(Some(Box::new(frames.into_iter().map(move |f| Item {
+        image: frames::decode_image(&image_of(&f)).map_err(Into::into),
+        name: f.name,
+        seq: (!f.seq.is_empty()).then_some(f.seq),
+        t: f.t,
+    }))))
+}
+
+/// The frames of `input`, decoded lazily: a native dataset's frames (of `split`), a 7-Scenes or
+/// Cambridge collection's ([`posed_frames`]), or any frame source `data::frames` opens (image,
+/// image folder, video).
 fn frames_of(input: &Path, split: Split) -> Result<Box<dyn Iterator<Item = Item>>> {
+    if let Some(items) = posed_frames(input, split)? {
+        return Ok(items);
+    }
     if input.join("dataset.toml").is_file() {
         let ds = NativeDataset::open(input)?;
         let indices: Vec<usize> = match split {
@@ -209,7 +302,7 @@ fn frames_of(input: &Path, split: Split) -> Result<Box<dyn Iterator<Item = Item>
     }
     if split != Split::All {
         bail!(
-            "{}: --split needs a native dataset folder (with dataset.toml)",
+            "{}: --split needs a native dataset or 7-Scenes scene folder",
             input.display()
         );
     }
