@@ -33,6 +33,7 @@ mod error;
 mod hash;
 pub mod head;
 pub mod infer;
+pub mod loader;
 pub mod loss;
 pub mod net;
 pub mod train;

@@ -23,6 +23,7 @@ use crate::checkpoint::{self, DatasetRef, FORMAT, MODEL_BPK, MODEL_TOML, ModelMe
 use crate::dataset::{self, Samples, TrainData};
 use crate::head::{PoseCoding, Task};
 use crate::infer;
+use crate::loader;
 use crate::loss::pose_loss;
 use crate::net::{Arch, HeadConfig, NetConfig, PoseNet};
 use crate::{LearnError, Result};
@@ -126,6 +127,10 @@ pub struct TrainConfig {
     /// Two networks, one for the position and one for the rotation ([`NetConfig::split`]).
     #[serde(default)]
     pub split: bool,
+    /// Jitter the training views (contrast, brightness, noise, occluders; see
+    /// [`crate::loader::jitter_view`]).
+    #[serde(default)]
+    pub augment: bool,
     /// Stop after this many epochs without a better validation median position error.
     pub patience: Option<usize>,
     /// Seed of initialisation, shuffling and dropout.
@@ -161,6 +166,7 @@ impl TrainConfig {
             hidden: 1024,
             aleatoric: true,
             split: false,
+            augment: false,
             patience: Some(10),
             seed: 0,
             resume: false,
@@ -377,26 +383,6 @@ pub fn evaluate(
     Ok((p.median, r.median, p.mean))
 }
 
-/// A batch as tensors: inputs `[B, C, H, W]` and targets `[B, outputs]`.
-fn batch(
-    samples: &Samples,
-    targets: &[Vec<f32>],
-    idx: &[usize],
-    device: &Device,
-) -> (Tensor<4>, Tensor<2>) {
-    let mut x = Vec::with_capacity(idx.len() * samples.view_len());
-    let mut y = Vec::with_capacity(idx.len() * targets[0].len());
-    for &i in idx {
-        x.extend_from_slice(samples.input(i));
-        y.extend_from_slice(&targets[i]);
-    }
-    let shape = [idx.len(), samples.channels, samples.height, samples.width];
-    (
-        Tensor::from_data(TensorData::new(x, shape), device),
-        Tensor::from_data(TensorData::new(y, [idx.len(), targets[0].len()]), device),
-    )
-}
-
 /// What a fresh run or a checkpoint starts from.
 struct Start {
     meta: ModelMeta,
@@ -516,7 +502,7 @@ fn resume(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device)
 /// The settings a resume compares, in one line for the error message.
 fn settings_text(c: &TrainConfig, task: Task) -> String {
     format!(
-        "task {task}, arch {}, batch {}, lr {}, {:?}, {:?}, weight decay {}, beta {}, learned weighting {}, dropout {}, hidden {}, aleatoric {}, split {}, seed {}, max steps {:?}",
+        "task {task}, arch {}, batch {}, lr {}, {:?}, {:?}, weight decay {}, beta {}, learned weighting {}, dropout {}, hidden {}, aleatoric {}, split {}, augment {}, seed {}, max steps {:?}",
         c.arch,
         c.batch_size,
         c.lr,
@@ -529,6 +515,7 @@ fn settings_text(c: &TrainConfig, task: Task) -> String {
         c.hidden,
         c.aleatoric,
         c.split,
+        c.augment,
         c.seed,
         c.max_steps_per_epoch
     )
@@ -589,6 +576,8 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
         steps = steps.min(cap);
     }
     let total_steps = steps * cfg.epochs;
+    let [c, h, w] = [data.train.channels, data.train.height, data.train.width];
+    let outputs = targets[0].len();
     let plain = Device::flex();
     while meta.epoch < cfg.epochs {
         let epoch = meta.epoch + 1;
@@ -598,31 +587,46 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
         let mut order: Vec<usize> = (0..data.train.len()).collect();
         order.shuffle(&mut rng);
         let (mut loss_sum, mut pos_sum, mut lr) = (0.0, 0.0, cfg.lr);
-        for step in 0..steps {
-            let idx = &order[step * batch_size..(step + 1) * batch_size];
-            let (x, y) = batch(&data.train, &targets, idx, &device);
-            let out = net.forward_dropout(x, cfg.dropout, &mut rng);
-            let parts = pose_loss(&coding, out, y, cfg.beta, net.log_vars());
-            let grads = GradientsParams::from_grads(parts.total.backward(), &net);
-            let loss: f64 = parts.total.into_scalar::<f32>() as f64;
-            if !loss.is_finite() {
-                return Err(LearnError::Diverged(format!(
-                    "loss {loss} at epoch {epoch}, step {}; try a lower learning rate",
-                    step + 1
-                )));
-            }
-            let global = (epoch - 1) * steps + step;
-            lr = cfg.schedule.lr(cfg.lr, global, total_steps, steps);
-            net = optim.step(lr, net, grads);
-            loss_sum += loss;
-            pos_sum += parts.pos.into_scalar::<f32>() as f64;
-            progress(&TrainEvent::Step {
-                epoch,
-                step: step + 1,
+        let jitter = cfg.augment.then(|| loader::jitter_rng(cfg.seed, epoch));
+        std::thread::scope(|scope| -> Result<()> {
+            let batches = loader::spawn(
+                scope,
+                &data.train,
+                &targets,
+                order,
+                batch_size,
                 steps,
-                loss,
-            });
-        }
+                jitter,
+            );
+            for (step, b) in batches.iter().enumerate() {
+                let x =
+                    Tensor::<4>::from_data(TensorData::new(b.inputs, [b.rows, c, h, w]), &device);
+                let y =
+                    Tensor::<2>::from_data(TensorData::new(b.targets, [b.rows, outputs]), &device);
+                let out = net.forward_dropout(x, cfg.dropout, &mut rng);
+                let parts = pose_loss(&coding, out, y, cfg.beta, net.log_vars());
+                let grads = GradientsParams::from_grads(parts.total.backward(), &net);
+                let loss: f64 = parts.total.into_scalar::<f32>() as f64;
+                if !loss.is_finite() {
+                    return Err(LearnError::Diverged(format!(
+                        "loss {loss} at epoch {epoch}, step {}; try a lower learning rate",
+                        step + 1
+                    )));
+                }
+                let global = (epoch - 1) * steps + step;
+                lr = cfg.schedule.lr(cfg.lr, global, total_steps, steps);
+                net = optim.step(lr, net.clone(), grads);
+                loss_sum += loss;
+                pos_sum += parts.pos.into_scalar::<f32>() as f64;
+                progress(&TrainEvent::Step {
+                    epoch,
+                    step: step + 1,
+                    steps,
+                    loss,
+                });
+            }
+            Ok(())
+        })?;
         let valid = net.valid();
         let (med_pos, med_rot, mean_pos) = evaluate(&valid, &coding, &data.val, &plain)?;
         let metrics = EpochMetrics {

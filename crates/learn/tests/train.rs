@@ -117,13 +117,24 @@ fn resume_continues_from_the_last_epoch_and_matches_an_uninterrupted_run() {
     let tmp = tempfile::tempdir().unwrap();
     let data = tmp.path().join("data");
     common::make_dataset(&data, 6, 16);
+    // With view jitter on, so that its generator is checked to resume as well.
+    let jittered = |out: &Path, epochs| {
+        let mut cfg = tiny_config(&data, out, epochs);
+        cfg.augment = true;
+        cfg
+    };
     let straight = tmp.path().join("straight");
-    let (full, _) = run(&tiny_config(&data, &straight, 2));
+    let (full, _) = run(&jittered(&straight, 2));
+    let (plain, _) = run(&tiny_config(&data, &tmp.path().join("plain"), 2));
+    assert_ne!(
+        plain.history[0].train_loss, full.history[0].train_loss,
+        "the jitter changes what the network sees"
+    );
 
     let split = tmp.path().join("split");
-    let (first, _) = run(&tiny_config(&data, &split, 1));
+    let (first, _) = run(&jittered(&split, 1));
     assert_eq!(first.epochs, 1);
-    let mut cfg = tiny_config(&data, &split, 2);
+    let mut cfg = jittered(&split, 2);
     cfg.resume = true;
     let (second, events) = run(&cfg);
     assert!(events.contains(&TrainEvent::Resumed { epoch: 1 }));

@@ -72,6 +72,10 @@ pub struct TrainArgs {
     /// (heading), as the ceiling-camera literature does. Twice the cost.
     #[arg(long)]
     split: bool,
+    /// Jitter the training views on the loader thread: contrast, brightness, noise and
+    /// occluding rectangles (photometric only, so every pose label stays true).
+    #[arg(long)]
+    augment: bool,
     /// Stop after this many epochs without a better validation median position error.
     #[arg(long, default_value_t = 10)]
     patience: usize,
@@ -112,6 +116,7 @@ impl TrainArgs {
         cfg.hidden = self.hidden;
         cfg.aleatoric = self.aleatoric.unwrap_or(!self.learned_weighting);
         cfg.split = self.split;
+        cfg.augment = self.augment;
         cfg.patience = Some(self.patience);
         cfg.seed = self.seed;
         cfg.resume = self.resume;

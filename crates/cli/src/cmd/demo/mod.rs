@@ -78,6 +78,9 @@ pub struct DemoArgs {
     /// Two networks, one for the position and one for the rotation (twice the training time).
     #[arg(long)]
     split: bool,
+    /// Jitter the training views (contrast, brightness, noise, occluders).
+    #[arg(long)]
+    augment: bool,
     /// Monte-Carlo-dropout passes per test frame.
     #[arg(long, default_value_t = 16)]
     mc: usize,
@@ -154,6 +157,7 @@ fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
     train.hidden = args.hidden;
     train.aleatoric = args.aleatoric;
     train.split = args.split;
+    train.augment = args.augment;
     train.seed = args.seed;
     train.resume = true;
     Setup { scene, train }
