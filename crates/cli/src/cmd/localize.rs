@@ -187,6 +187,9 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
     Ok(())
 }
 
+/// Where a posed frame's image is.
+type ImageOf = Box<dyn Fn(&PoseFrame) -> PathBuf>;
+
 /// The frames of a posed collection in another tool's layout, decoded lazily: a 7-Scenes scene
 /// or sequence folder (`frame-NNNNNN.color.png` beside each pose file; `split` from its split
 /// files) or a Cambridge list (image paths relative to the list's folder). `None` for anything
@@ -203,7 +206,7 @@ fn posed_frames(input: &Path, split: Split) -> Result<Option<Box<dyn Iterator<It
     let Ok(format) = formats::detect(input) else {
         return Ok(None);
     };
-    let (frames, image_of): (Vec<PoseFrame>, Box<dyn Fn(&PoseFrame) -> PathBuf>) = match format {
+    let (frames, image_of): (Vec<PoseFrame>, ImageOf) = match format {
         Format::SevenScenes => {
             let traj = sevenscenes::read(input)?;
             let keep: Option<Vec<String>> = match split {
