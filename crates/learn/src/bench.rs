@@ -3,8 +3,8 @@
 //!
 //! - Training step (timed as a whole): forward in training mode, PoseNet loss (β = 1), backward,
 //!   Adam step (lr 1e-3, ε 1e-8, no weight decay), reading the loss back.
-//! - Inference: the network in evaluation mode on one image (BatchNorm with running statistics),
-//!   reading the output back.
+//! - Inference: the network in evaluation mode on one image, BatchNorm folded into the
+//!   convolutions as `Localizer` does, reading the output back.
 //!
 //! Both run `warmup` untimed repetitions first and return every timed one in milliseconds.
 
@@ -71,7 +71,8 @@ pub fn train_step_ms(
 pub fn infer_ms(arch: Arch, input: [usize; 3], warmup: usize, runs: usize) -> Result<Vec<f64>> {
     let device = Device::flex();
     let [c, h, w] = input;
-    let net = net_config(arch, c).init(&device, 0)?;
+    // As `Localizer` runs it: BatchNorm folded into the convolutions.
+    let net = net_config(arch, c).init(&device, 0)?.fold_batchnorm();
     let one = Tensor::<4>::random([1, c, h, w], Distribution::Normal(0.0, 1.0), &device);
     let mut times = Vec::with_capacity(runs);
     for i in 0..warmup + runs {

@@ -78,7 +78,7 @@ impl Localizer {
         let spec = ViewSpec::resolve(&meta.view)
             .map_err(|e| LearnError::corrupt(dir.join(checkpoint::MODEL_TOML), e.to_string()))?;
         Ok(Localizer {
-            net: net.valid(),
+            net: net.valid().fold_batchnorm(),
             meta,
             spec,
             device,

@@ -1,8 +1,13 @@
-//! Convolution + BatchNorm, the building block both backbones share (PyTorch's
+//! Convolution + BatchNorm, the building block every backbone shares (PyTorch's
 //! `Conv2d(bias=False)` followed by `BatchNorm2d`), so that layer counts and parameter counts
 //! match `torch_apr.py` one for one.
+//!
+//! For inference the BatchNorm is folded into the convolution ([`ConvBn::fold`]): with running
+//! statistics it is an affine map per channel, `γ·(y − μ)/√(σ² + ε) + β`, so scaling each
+//! output channel's kernel by `γ/√(σ² + ε)` and adding the bias `β − μ·γ/√(σ² + ε)` gives the
+//! same outputs with one pass over the feature map instead of two.
 
-use burn::module::{Initializer, Module};
+use burn::module::{Initializer, Module, Param};
 use burn::nn::conv::{Conv2d, Conv2dConfig};
 use burn::nn::{BatchNorm, BatchNormConfig, PaddingConfig2d};
 use burn::tensor::{Device, Tensor};
@@ -14,6 +19,9 @@ use burn::tensor::{Device, Tensor};
 pub struct ConvBn {
     conv: Conv2d,
     bn: BatchNorm,
+    /// The BatchNorm has been folded into `conv` and is skipped. Never saved: folding happens
+    /// after loading, for inference only.
+    folded: bool,
 }
 
 impl ConvBn {
@@ -30,12 +38,41 @@ impl ConvBn {
             })
             .init(device);
         let bn = BatchNormConfig::new(cout).init(device);
-        ConvBn { conv, bn }
+        ConvBn {
+            conv,
+            bn,
+            folded: false,
+        }
+    }
+
+    /// The same layer with the BatchNorm's running statistics folded into the convolution's
+    /// weights and bias (see the module docs); for a network in evaluation mode.
+    pub fn fold(mut self) -> Self {
+        if self.folded {
+            return self;
+        }
+        let bn = &self.bn;
+        let scale = bn.gamma.val() / bn.running_var.value().add_scalar(bn.epsilon).sqrt();
+        let bias = bn.beta.val() - bn.running_mean.value() * scale.clone();
+        let bias = match &self.conv.bias {
+            Some(b) => bias + b.val() * scale.clone(),
+            None => bias,
+        };
+        let [cout, ..] = self.conv.weight.dims();
+        let weight = self.conv.weight.val() * scale.reshape([cout, 1, 1, 1]);
+        self.conv.weight = Param::from_tensor(weight);
+        self.conv.bias = Some(Param::from_tensor(bias));
+        self.folded = true;
+        self
     }
 
     /// Convolution then BatchNorm (batch statistics on an autodiff device in training mode,
     /// running statistics otherwise).
     pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
-        self.bn.forward(self.conv.forward(x))
+        if self.folded {
+            self.conv.forward(x)
+        } else {
+            self.bn.forward(self.conv.forward(x))
+        }
     }
 }

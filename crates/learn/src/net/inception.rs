@@ -37,6 +37,12 @@ impl ConvBnRelu {
         }
     }
 
+    fn fold(self) -> Self {
+        ConvBnRelu {
+            inner: self.inner.fold(),
+        }
+    }
+
     fn forward(&self, x: Tensor<4>) -> Tensor<4> {
         relu(self.inner.forward(x))
     }
@@ -66,6 +72,18 @@ impl Inception {
             b5: ConvBnRelu::new(w[3], w[4], 5, 1, device),
             pool: max_pool(3, 1, 1),
             pool_proj: ConvBnRelu::new(cin, w[5], 1, 1, device),
+        }
+    }
+
+    fn fold(self) -> Self {
+        Inception {
+            b1: self.b1.fold(),
+            b3_reduce: self.b3_reduce.fold(),
+            b3: self.b3.fold(),
+            b5_reduce: self.b5_reduce.fold(),
+            b5: self.b5.fold(),
+            pool: self.pool,
+            pool_proj: self.pool_proj.fold(),
         }
     }
 
@@ -107,6 +125,21 @@ impl InceptionNet {
             inception3b: Inception::new(256, [128, 128, 192, 32, 96, 64], device),
             pool3: max_pool(3, 2, 0),
             inception4a: Inception::new(480, [192, 96, 208, 16, 48, 64], device),
+        }
+    }
+
+    /// The body with every BatchNorm folded ([`ConvBn::fold`]).
+    pub fn fold(self) -> Self {
+        InceptionNet {
+            conv1: self.conv1.fold(),
+            pool1: self.pool1,
+            conv2: self.conv2.fold(),
+            conv3: self.conv3.fold(),
+            pool2: self.pool2,
+            inception3a: self.inception3a.fold(),
+            inception3b: self.inception3b.fold(),
+            pool3: self.pool3,
+            inception4a: self.inception4a.fold(),
         }
     }
 

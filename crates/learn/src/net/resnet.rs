@@ -41,6 +41,14 @@ impl BasicBlock {
         }
     }
 
+    fn fold(self) -> Self {
+        BasicBlock {
+            conv1: self.conv1.fold(),
+            conv2: self.conv2.fold(),
+            downsample: self.downsample.map(ConvBn::fold),
+        }
+    }
+
     fn forward(&self, x: Tensor<4>) -> Tensor<4> {
         let y = self.conv2.forward(relu(self.conv1.forward(x.clone())));
         let shortcut = match &self.downsample {
@@ -79,6 +87,15 @@ impl ResNet {
                 .with_padding(PaddingConfig2d::Explicit(1, 1, 1, 1))
                 .init(),
             blocks,
+        }
+    }
+
+    /// The body with every BatchNorm folded ([`ConvBn::fold`]).
+    pub fn fold(self) -> Self {
+        ResNet {
+            stem: self.stem.fold(),
+            pool: self.pool,
+            blocks: self.blocks.into_iter().map(BasicBlock::fold).collect(),
         }
     }
 

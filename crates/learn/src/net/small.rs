@@ -33,6 +33,13 @@ impl SmallNet {
         SmallNet { stages }
     }
 
+    /// The body with every BatchNorm folded ([`ConvBn::fold`]).
+    pub fn fold(self) -> Self {
+        SmallNet {
+            stages: self.stages.into_iter().map(ConvBn::fold).collect(),
+        }
+    }
+
     /// `[B, C, H, W] -> [B, 256, H/32, W/32]` (sizes rounded up at each stage).
     pub fn forward(&self, mut x: Tensor<4>) -> Tensor<4> {
         for stage in &self.stages {
