@@ -652,13 +652,13 @@ mod tests {
             let want = plain
                 .forward(x(&device))
                 .into_data()
-                .to_vec::<f32>()
+                .try_to_vec::<f32>()
                 .unwrap_or_default();
             let got = plain
                 .fold_batchnorm()
                 .forward(x(&device))
                 .into_data()
-                .to_vec::<f32>()
+                .try_to_vec::<f32>()
                 .unwrap_or_default();
             let fresh = NetConfig {
                 split: arch == Arch::Small,
@@ -667,7 +667,7 @@ mod tests {
             .init(&device, 1)?
             .forward(x(&device))
             .into_data()
-            .to_vec::<f32>()
+            .try_to_vec::<f32>()
             .unwrap_or_default();
             assert_ne!(want, fresh, "{arch}: the running statistics moved");
             assert_eq!(want.len(), got.len());
