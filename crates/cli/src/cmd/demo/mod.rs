@@ -306,6 +306,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             results: &results,
             eval: &eval,
             uncertainty: &uncertainty,
+            scale: setup.train.aleatoric,
             summary: &summary,
         },
     )?;

@@ -23,6 +23,8 @@ pub struct PageInput<'a> {
     pub eval: &'a Evaluation,
     /// Uncertainty against error.
     pub uncertainty: &'a UncertaintyFigures,
+    /// The network also predicts each image's error scale (part of sigma_pos_m).
+    pub scale: bool,
     /// How training went.
     pub summary: &'a TrainSummary,
 }
@@ -107,10 +109,16 @@ pub fn write(dir: &Path, input: &PageInput) -> Result<PathBuf> {
     )?;
 
     page.section("Uncertainty");
+    let source = if input.scale {
+        "the spread of Monte-Carlo dropout passes plus the error scale the network predicts \
+         for each image"
+    } else {
+        "the spread of Monte-Carlo dropout passes"
+    };
     page.paragraph(format!(
-        "Monte-Carlo dropout ({} passes per frame) gives each estimate a spread. Pearson R \
-         between that spread (sigma_pos_m) and the position error: {:.2}. The 10 % of frames \
-         with the largest spread have a median error of {:.3} m, the rest {:.3} m.",
+        "Each estimate's sigma_pos_m is {source} ({} passes per frame). Pearson R between \
+         sigma_pos_m and the position error: {:.2}. The 10 % of frames with the largest sigma \
+         have a median error of {:.3} m, the rest {:.3} m.",
         r.first().map_or(0, |f| f.estimate.passes),
         input.uncertainty.pearson_r,
         input.uncertainty.top10_median_m,
@@ -122,7 +130,7 @@ pub fn write(dir: &Path, input: &PageInput) -> Result<PathBuf> {
         .collect();
     let sc = report::scatter(
         "Uncertainty against error",
-        "MC-dropout sigma_pos_m (m)",
+        "sigma_pos_m (m)",
         "position error (m)",
         &points,
     );
