@@ -75,9 +75,11 @@ pub struct DemoArgs {
     /// Predict each image's position-error scale (aleatoric uncertainty) beside the pose.
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set, value_name = "BOOL")]
     aleatoric: bool,
-    /// Two networks, one for the position and one for the rotation (twice the training time).
-    #[arg(long)]
-    split: bool,
+    /// Two networks, one for the position and one for the rotation (twice the training time);
+    /// default: true for the ceiling camera (as the ceiling-camera literature trains a position
+    /// net and a heading net), false for the forward one.
+    #[arg(long, action = clap::ArgAction::Set, value_name = "BOOL")]
+    split: Option<bool>,
     /// Jitter the training views (contrast, brightness, noise, occluders).
     #[arg(long)]
     augment: bool,
@@ -111,11 +113,12 @@ fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
     };
     let walks = if args.quick { 2 } else { 4 };
     // The full ceiling run keeps the 160x120 view of the ceiling-camera literature, four times
-    // the pixels of the forward run's view, so it trains on fewer frames to stay near 30 min.
+    // the pixels of the forward run's view, with two networks, so it trains on fewer frames to
+    // stay near 30 min.
     let train_frames = args.train_frames.unwrap_or(match (args.quick, ceiling) {
         (true, _) => 16000,
         (false, false) => 40000,
-        (false, true) => 12000,
+        (false, true) => 8000,
     });
     let test_frames = args
         .test_frames
@@ -156,7 +159,7 @@ fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
     train.patience = None;
     train.hidden = args.hidden;
     train.aleatoric = args.aleatoric;
-    train.split = args.split;
+    train.split = args.split.unwrap_or(ceiling);
     train.augment = args.augment;
     train.seed = args.seed;
     train.resume = true;
