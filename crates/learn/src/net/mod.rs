@@ -492,6 +492,13 @@ impl PoseNet {
 mod tests {
     use super::*;
 
+    /// The values of a network's outputs.
+    fn values(y: Tensor<2>) -> Result<Vec<f32>> {
+        y.into_data()
+            .try_to_vec::<f32>()
+            .map_err(|e| LearnError::Input(format!("{e:?}")))
+    }
+
     fn config(arch: Arch, channels: usize) -> NetConfig {
         NetConfig {
             arch,
@@ -618,10 +625,7 @@ mod tests {
         let x = Tensor::<4>::ones([1, 1, 32, 32], &device);
         let out = |seed| -> Result<Vec<f32>> {
             let net = config(Arch::Small, 1).init(&device, seed)?.valid();
-            net.forward(x.clone())
-                .into_data()
-                .try_to_vec::<f32>()
-                .map_err(|e| LearnError::Input(format!("{e:?}")))
+            values(net.forward(x.clone()))
         };
         assert_eq!(out(3)?, out(3)?);
         assert_ne!(out(3)?, out(4)?);
@@ -649,26 +653,14 @@ mod tests {
             }
             let plain = net.valid();
             let device = Device::flex();
-            let want = plain
-                .forward(x(&device))
-                .into_data()
-                .try_to_vec::<f32>()
-                .unwrap_or_default();
-            let got = plain
-                .fold_batchnorm()
-                .forward(x(&device))
-                .into_data()
-                .try_to_vec::<f32>()
-                .unwrap_or_default();
+            let want = values(plain.forward(x(&device)))?;
+            let got = values(plain.fold_batchnorm().forward(x(&device)))?;
             let fresh = NetConfig {
                 split: arch == Arch::Small,
                 ..config(arch, 1)
             }
-            .init(&device, 1)?
-            .forward(x(&device))
-            .into_data()
-            .try_to_vec::<f32>()
-            .unwrap_or_default();
+            .init(&device, 1)?;
+            let fresh = values(fresh.forward(x(&device)))?;
             assert_ne!(want, fresh, "{arch}: the running statistics moved");
             assert_eq!(want.len(), got.len());
             for (a, b) in want.iter().zip(&got) {
