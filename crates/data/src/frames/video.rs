@@ -192,6 +192,23 @@ impl VideoFile {
         })
     }
 
+    /// Changes the size frames are scaled to from the next frame on (`None`: the video's own
+    /// size). Lets a caller pick a size from [`frame_size`](Self::frame_size) after opening,
+    /// as scene-cut detection does for its aspect-preserving thumbnails.
+    ///
+    /// # Errors
+    /// A zero or absurd width or height.
+    pub fn set_output_size(&mut self, size: Option<(u32, u32)>) -> Result<()> {
+        if let Some((w, h)) = size {
+            if w == 0 || h == 0 || w > 16384 || h > 16384 {
+                return Err(self.error(format!("cannot scale video frames to {w}x{h}")));
+            }
+        }
+        self.target = size;
+        self.scaler = None;
+        Ok(())
+    }
+
     /// The size of the frames this source gives: the requested size of
     /// [`open_scaled`](Self::open_scaled), else the video's coded size from its header.
     pub fn frame_size(&self) -> (u32, u32) {
