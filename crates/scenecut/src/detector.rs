@@ -8,15 +8,22 @@
 //!
 //! # The decision for frame `t`
 //! - `score(t)`: mean absolute difference (grey levels, 0–255) of the path's RGB samples between
-//!   frames `t - 1` and `t`: the difference of two neighbouring columns of the visual rhythm.
+//!   frames `t - 1` and `t`, each column first brought to zero mean and a common contrast per
+//!   channel: the difference of two neighbouring columns of the visual rhythm, blind to a change
+//!   of overall brightness (a lamp flickering, auto-exposure, turning from a lit wall to a
+//!   shaded one), which moves no camera. Gradual transitions, which are brightness changes, use
+//!   the plain difference.
 //! - `baseline(t)`: the median of `score` over the `window` frames before and after `t` (not `t`
 //!   itself): a low-pass of the series that a single spike cannot move, but sustained motion
 //!   (a camera pan, a hand sweeping through the view) raises.
 //! - A hard cut when `score ≥ ratio · (baseline + 1)` and `score − baseline ≥ min_jump`: the
 //!   frame stands out from its neighbourhood, by a factor and by an absolute margin (the `+ 1`
-//!   grey level is the noise floor that keeps still, dark shots from dividing by zero).
-//! - Not a cut when the content comes back one frame later (a flash, a dropped frame shown
-//!   twice): the columns of `t - 1` and `t + 1` differ by less than `flash · score`.
+//!   grey level is the noise floor that keeps still, dark shots from dividing by zero). A score
+//!   of at least `strong` needs only `strong_ratio`: a cut in the middle of a fast turn, whose
+//!   neighbours already differ a lot.
+//! - Not a cut when the content comes back within a few frames (a flash, a lamp flickering, a
+//!   dropped frame shown twice): a column of the 3 frames before `t` and one of the 3 frames from
+//!   `t` on differ by less than `flash · score`.
 //! - Not a cut within `min_gap` frames after the previous one.
 //!
 //! The decision for `t` waits for frames up to `t + window`: the detector's latency. Memory is
@@ -39,6 +46,9 @@ use std::collections::VecDeque;
 
 /// The noise floor added to the baseline in the ratio test, grey levels.
 const NOISE_FLOOR: f32 = 1.0;
+
+/// Longest flash, frames: the flash test compares this many frames on each side of a candidate.
+const FLASH_FRAMES: usize = 3;
 
 /// Settings of the gradual-transition detector.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -83,9 +93,14 @@ pub struct Config {
     pub ratio: f32,
     /// Least `score − baseline` of a hard cut, grey levels.
     pub min_jump: f32,
+    /// A score this high (grey levels) needs only `strong_ratio` instead of `ratio`: a cut
+    /// during fast camera motion, whose neighbours already differ a lot.
+    pub strong: f32,
+    /// Least `score / (baseline + 1)` of a strong score.
+    pub strong_ratio: f32,
     /// Least frames between two hard cuts.
     pub min_gap: u64,
-    /// A frame is a flash, not a cut, when the frames around it differ by less than this
+    /// A frame is a flash, not a cut, when frames before and after it differ by less than this
     /// fraction of its score.
     pub flash: f32,
     /// Gradual transitions, or `None` to look for hard cuts only.
@@ -100,6 +115,8 @@ impl Default for Config {
             window: 3,
             ratio: 3.0,
             min_jump: 5.0,
+            strong: 30.0,
+            strong_ratio: 2.0,
             min_gap: 5,
             flash: 0.5,
             gradual: Some(GradualConfig::default()),
@@ -123,6 +140,12 @@ impl Config {
         if !(self.min_jump.is_finite() && self.min_jump >= 0.0) {
             return bad("min_jump must be a number ≥ 0");
         }
+        if !(self.strong.is_finite() && self.strong >= 0.0) {
+            return bad("strong must be a number ≥ 0");
+        }
+        if !(self.strong_ratio.is_finite() && (1.0..=self.ratio).contains(&self.strong_ratio)) {
+            return bad("strong_ratio must be between 1 and ratio");
+        }
         if !(self.flash.is_finite() && (0.0..=1.0).contains(&self.flash)) {
             return bad("flash must be between 0 and 1");
         }
@@ -133,6 +156,14 @@ impl Config {
             }
         }
         Ok(())
+    }
+
+    /// The least score of a hard cut where the baseline is `baseline`.
+    pub fn threshold(&self, baseline: f32) -> f32 {
+        let level = baseline + NOISE_FLOOR;
+        let adaptive = self.ratio * level;
+        let strong = self.strong.max(self.strong_ratio * level);
+        adaptive.min(strong).max(baseline + self.min_jump)
     }
 
     /// The thumbnail size for frames of `width` x `height`.
@@ -209,8 +240,12 @@ pub struct Trace {
 struct Entry {
     index: u64,
     column: Vec<u8>,
-    /// `None` for the first frame (nothing to compare with).
+    /// Per-channel mean and standard deviation of the column.
+    stats: ColumnStats,
+    /// Brightness-blind difference to the previous frame (`None` for the first frame).
     score: Option<f32>,
+    /// Plain difference to the previous frame (`None` for the first frame).
+    step: Option<f32>,
     decided: bool,
 }
 
@@ -310,14 +345,20 @@ impl Detector {
             let o = 3 * i as usize;
             column.extend_from_slice(&rgb[o..o + 3]);
         }
-        let score = self
-            .entries
-            .back()
-            .map(|prev| mean_abs_diff(&prev.column, &column));
+        let stats = ColumnStats::of(&column);
+        let (score, step) = match self.entries.back() {
+            Some(prev) => (
+                Some(normalised_diff(&prev.column, prev.stats, &column, stats)),
+                Some(mean_abs_diff(&prev.column, &column)),
+            ),
+            None => (None, None),
+        };
         self.entries.push_back(Entry {
             index,
             column,
+            stats,
             score,
+            step,
             decided: false,
         });
         let mut events = Vec::new();
@@ -366,8 +407,7 @@ impl Detector {
             .filter_map(|(_, e)| e.score)
             .collect();
         let baseline = median(&mut neighbours);
-        let threshold =
-            (self.cfg.ratio * (baseline + NOISE_FLOOR)).max(baseline + self.cfg.min_jump);
+        let threshold = self.cfg.threshold(baseline);
         self.record(index, score, baseline, threshold);
         let spaced = self.last_cut.is_none_or(|c| index - c >= self.cfg.min_gap);
         let is_cut = score >= threshold && spaced && !self.is_flash(at, score);
@@ -380,21 +420,28 @@ impl Detector {
                 baseline,
             }));
         } else {
-            self.follow_run(at, score, events);
+            let step = self.entries[at].step.unwrap_or(0.0);
+            self.follow_run(at, step, events);
         }
     }
 
-    /// Whether the frames around `at` look alike: the content came back.
+    /// Whether the content on both sides of `at` is the same: some frame of the
+    /// [`FLASH_FRAMES`] before `at` looks like some frame of the [`FLASH_FRAMES`] from `at`
+    /// on. A flash (or a lamp flickering for a frame or two) changes the picture and then
+    /// gives it back; a cut does not. The same test rejects both edges of the flash.
     fn is_flash(&self, at: usize, score: f32) -> bool {
-        match (
-            at.checked_sub(1).and_then(|i| self.entries.get(i)),
-            self.entries.get(at + 1),
-        ) {
-            (Some(before), Some(after)) => {
-                mean_abs_diff(&before.column, &after.column) < self.cfg.flash * score
-            }
-            _ => false,
-        }
+        let span = FLASH_FRAMES.min(self.cfg.window);
+        let before = self.entries.range(at.saturating_sub(span)..at);
+        let after: Vec<&Entry> = self
+            .entries
+            .range(at..(at + span).min(self.entries.len()))
+            .collect();
+        let limit = self.cfg.flash * score;
+        before.into_iter().any(|b| {
+            after
+                .iter()
+                .any(|a| normalised_diff(&b.column, b.stats, &a.column, a.stats) < limit)
+        })
     }
 
     fn record(&mut self, index: u64, score: f32, baseline: f32, threshold: f32) {
@@ -406,12 +453,13 @@ impl Detector {
         }
     }
 
-    /// Extends, starts or ends the candidate gradual run with the (non-cut) frame `at`.
-    fn follow_run(&mut self, at: usize, score: f32, events: &mut Vec<Event>) {
+    /// Extends, starts or ends the candidate gradual run with the (non-cut) frame `at`, whose
+    /// plain difference to the frame before is `step`.
+    fn follow_run(&mut self, at: usize, step: f32, events: &mut Vec<Event>) {
         let Some(g) = self.cfg.gradual else {
             return;
         };
-        if score < g.min_step || at == 0 {
+        if step < g.min_step || at == 0 {
             self.end_run(events);
             return;
         }
@@ -486,6 +534,61 @@ pub(crate) fn mean_abs_diff(a: &[u8], b: &[u8]) -> f32 {
         total += u64::from(s);
     }
     total as f32 / a.len().max(1) as f32
+}
+
+/// Contrast below which a column counts as flat (grey levels of standard deviation): flat
+/// columns keep their noise instead of having it stretched to the other column's contrast.
+const CONTRAST_FLOOR: f32 = 6.0;
+
+/// Per-channel mean and standard deviation of an RGB column.
+#[derive(Clone, Copy, Debug)]
+struct ColumnStats {
+    mean: [f32; 3],
+    std: [f32; 3],
+}
+
+impl ColumnStats {
+    fn of(column: &[u8]) -> ColumnStats {
+        let mut sum = [0u64; 3];
+        let mut sq = [0u64; 3];
+        for px in column.chunks_exact(3) {
+            for c in 0..3 {
+                let v = u64::from(px[c]);
+                sum[c] += v;
+                sq[c] += v * v;
+            }
+        }
+        let n = (column.len() / 3).max(1) as f64;
+        let mean = sum.map(|s| s as f64 / n);
+        let std = [0, 1, 2].map(|c| (sq[c] as f64 / n - mean[c] * mean[c]).max(0.0).sqrt() as f32);
+        ColumnStats {
+            mean: mean.map(|m| m as f32),
+            std,
+        }
+    }
+}
+
+/// Mean absolute difference of two RGB columns after bringing each channel to zero mean and to
+/// the pair's common contrast: what remains is a change of content, not of brightness or
+/// exposure (an overall scale and offset per channel).
+fn normalised_diff(a: &[u8], sa: ColumnStats, b: &[u8], sb: ColumnStats) -> f32 {
+    let mut gain_a = [0.0f32; 3];
+    let mut gain_b = [0.0f32; 3];
+    for c in 0..3 {
+        let (da, db) = (sa.std[c].max(CONTRAST_FLOOR), sb.std[c].max(CONTRAST_FLOOR));
+        let common = 0.5 * (da + db);
+        gain_a[c] = common / da;
+        gain_b[c] = common / db;
+    }
+    let mut total = 0.0f32;
+    for (pa, pb) in a.chunks_exact(3).zip(b.chunks_exact(3)) {
+        for c in 0..3 {
+            let x = (f32::from(pa[c]) - sa.mean[c]) * gain_a[c];
+            let y = (f32::from(pb[c]) - sb.mean[c]) * gain_b[c];
+            total += (x - y).abs();
+        }
+    }
+    total / a.len().max(1) as f32
 }
 
 /// Median of `v` (reordered); 0 for an empty slice.

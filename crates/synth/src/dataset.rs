@@ -22,8 +22,9 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// People who would pass within this distance (m) of the camera are left out of that frame: a
-/// camera inside a figure would see only a shirt, and real walkers step around a camera.
+/// People who would pass within this distance (m) of the camera are left out of that shot (the
+/// frames between two cuts): a camera inside a figure would see only a shirt, real walkers step
+/// around a camera, and nobody may pop in or out of view between two frames.
 pub const PERSON_CLEARANCE_M: f64 = 0.6;
 
 /// Where the building comes from.
@@ -183,6 +184,10 @@ pub fn run(
     let camera = trajectory::camera_for(&rig, cfg.width, cfg.height, cfg.seed)?;
     let (shots, cuts, fps) = plan_shots(&world, cfg, &rig)?;
     let scene = RenderScene::new(&world)?;
+    let left_out = crowd
+        .as_ref()
+        .map(|c| people_left_out(c, &world, &shots, &cuts))
+        .unwrap_or_else(|| vec![Vec::new(); shots.len()]);
 
     for sub in ["frames", "depth", "planes"] {
         let dir = out.join(sub);
@@ -203,10 +208,7 @@ pub fn run(
                 };
                 let extra = crowd
                     .as_ref()
-                    .map(|c| {
-                        let centre = nalgebra::Point3::from(shot.frame.pose.position());
-                        c.triangles_clear_of(&world, shot.frame.t, &centre, PERSON_CLEARANCE_M)
-                    })
+                    .map(|c| c.triangles_without(&world, shot.frame.t, &left_out[index]))
                     .unwrap_or_default();
                 let img = renderer.render(&scene, &camera, &shot.frame.pose, &opts, &extra)?;
                 write_png(&frame_path, &encode_rgb(&img.rgb)?)?;
@@ -233,6 +235,31 @@ pub fn run(
         render_seconds,
         warnings,
     })
+}
+
+/// Per frame, the people left out of it: those who come within [`PERSON_CLEARANCE_M`] of the
+/// camera anywhere in the frame's shot (the frames of one sequence between two cuts), so that
+/// nobody appears or vanishes between two frames of a shot.
+fn people_left_out(crowd: &Crowd, world: &World, shots: &[Shot], cuts: &[u64]) -> Vec<Vec<bool>> {
+    let mut out = Vec::with_capacity(shots.len());
+    let mut start = 0;
+    while start < shots.len() {
+        let mut end = start + 1;
+        while end < shots.len()
+            && shots[end].seq == shots[start].seq
+            && cuts.binary_search(&(end as u64)).is_err()
+        {
+            end += 1;
+        }
+        let cameras: Vec<_> = shots[start..end]
+            .iter()
+            .map(|s| (s.frame.t, nalgebra::Point3::from(s.frame.pose.position())))
+            .collect();
+        let left = crowd.too_close(world, &cameras, PERSON_CLEARANCE_M);
+        out.extend(std::iter::repeat_n(left, end - start));
+        start = end;
+    }
+    out
 }
 
 /// Draws the poses of every sequence: `(shots, gold cuts as frame indices, frame rate)`.

@@ -170,19 +170,61 @@ impl Crowd {
             let Some(f) = p.figure(world, t) else {
                 continue;
             };
-            let at = f.position.cast::<f64>();
-            let dxy = (at.xy() - camera.xy()).norm();
-            let level = camera.z >= at.z - 0.5 && camera.z <= at.z + p.height + 0.5;
-            if level && dxy < clearance_m + p.width / 2.0 + 0.15 {
+            if !p.within(&f, camera, clearance_m) {
+                p.body(&f, &mut out);
+            }
+        }
+        out
+    }
+
+    /// Which people come within `clearance_m` of the camera at any of `shot`'s
+    /// `(time, camera centre)` pairs. Leaving them out of the whole shot (with
+    /// [`Crowd::triangles_without`]) keeps anyone from popping in or out of view between two
+    /// frames, which [`Crowd::triangles_clear_of`] per frame would do: a jump no real camera
+    /// sees, and one a scene-cut detector rightly takes for a cut.
+    pub fn too_close(
+        &self,
+        world: &World,
+        shot: &[(f64, Point3<f64>)],
+        clearance_m: f64,
+    ) -> Vec<bool> {
+        self.people
+            .iter()
+            .map(|p| {
+                shot.iter().any(|(t, camera)| {
+                    p.figure(world, *t)
+                        .is_some_and(|f| p.within(&f, camera, clearance_m))
+                })
+            })
+            .collect()
+    }
+
+    /// As [`Crowd::triangles_at`], without the people marked in `left_out` (indexed like
+    /// [`Crowd::too_close`]'s answer).
+    pub fn triangles_without(&self, world: &World, t: f64, left_out: &[bool]) -> Vec<Triangle> {
+        let mut out = Vec::with_capacity(self.people.len() * 72);
+        for (i, p) in self.people.iter().enumerate() {
+            if left_out.get(i).copied().unwrap_or(false) {
                 continue;
             }
-            p.body(&f, &mut out);
+            if let Some(f) = p.figure(world, t) {
+                p.body(&f, &mut out);
+            }
         }
         out
     }
 }
 
 impl Person {
+    /// Whether this person, standing as `f`, comes within `clearance_m` of `camera`
+    /// (horizontally, on the camera's level).
+    fn within(&self, f: &Figure, camera: &Point3<f64>, clearance_m: f64) -> bool {
+        let at = f.position.cast::<f64>();
+        let dxy = (at.xy() - camera.xy()).norm();
+        let level = camera.z >= at.z - 0.5 && camera.z <= at.z + self.height + 0.5;
+        level && dxy < clearance_m + self.width / 2.0 + 0.15
+    }
+
     fn figure(&self, world: &World, t: f64) -> Option<Figure> {
         let total = *self.cum.last()?;
         if total.is_nan() || total <= 0.0 || !t.is_finite() {
