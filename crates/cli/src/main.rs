@@ -39,6 +39,8 @@ enum Command {
     Train(cmd::train::TrainArgs),
     /// Poses of images, an image folder, a video or a dataset from a trained model.
     Localize(cmd::localize::LocalizeArgs),
+    /// Scene cuts (and fades, dissolves) in a video or image folder, by visual rhythm.
+    Scenecut(cmd::scenecut::ScenecutArgs),
     /// Speed figures of each stage, beside the reference peer where one is installed.
     Bench(cmd::bench::BenchArgs),
 }
@@ -53,6 +55,7 @@ fn main() -> ExitCode {
         Command::Preprocess(args) => cmd::preprocess::run(&args),
         Command::Train(args) => cmd::train::run(&args),
         Command::Localize(args) => cmd::localize::run(&args),
+        Command::Scenecut(args) => cmd::scenecut::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

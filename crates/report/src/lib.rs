@@ -17,6 +17,7 @@
 //! - [`HtmlReport`]: a builder of one-file reports (sections, paragraphs, highlight cards,
 //!   tables, inline SVG and base64 PNG figures).
 //! - [`contact_sheet`]: a grid of labelled pictures in one PNG.
+//! - [`rhythm_png`]: the scene-cut picture (visual rhythm, difference series, cuts).
 //! - [`write_atomic`]: every file is written to a temporary name in the same folder, then renamed.
 //!
 //! # Conventions
@@ -54,6 +55,7 @@ mod figure;
 mod font;
 mod html;
 mod io;
+mod rhythm;
 mod scatter;
 mod sheet;
 mod table;
@@ -67,6 +69,7 @@ pub use figure::{
 };
 pub use html::HtmlReport;
 pub use io::write_atomic;
+pub use rhythm::{RhythmPlot, rhythm_png};
 pub use scatter::{Scatter, scatter};
 pub use sheet::{Tile, contact_sheet};
 pub use table::Table;

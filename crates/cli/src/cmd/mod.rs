@@ -6,5 +6,6 @@ pub mod eval;
 pub mod localize;
 pub mod parse;
 pub mod preprocess;
+pub mod scenecut;
 pub mod synth;
 pub mod train;
