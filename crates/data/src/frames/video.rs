@@ -115,6 +115,21 @@ impl VideoFile {
     /// # Errors
     /// As [`open`](Self::open), and a zero width or height.
     pub fn open_scaled(path: &Path, size: Option<(u32, u32)>) -> Result<Self> {
+        Self::open_with(path, size, false)
+    }
+
+    /// Like [`open`](Self::open), for analysis rather than display: the decoder skips its
+    /// loop (deblocking) filter. Pixels differ slightly from a normal decode (the block edges
+    /// of H.264 / HEVC are not smoothed), which thumbnails for scene-cut detection do not
+    /// notice, and decoding is about a fifth faster.
+    ///
+    /// # Errors
+    /// As [`open`](Self::open).
+    pub fn open_fast(path: &Path) -> Result<Self> {
+        Self::open_with(path, None, true)
+    }
+
+    fn open_with(path: &Path, size: Option<(u32, u32)>, fast: bool) -> Result<Self> {
         let err = |msg: String| DataError::Frames {
             path: path.to_path_buf(),
             msg,
@@ -164,6 +179,9 @@ impl VideoFile {
             ..Default::default()
         });
         let mut decoder = ctx.decoder();
+        if fast {
+            decoder.skip_loop_filter(ff::codec::discard::Discard::All);
+        }
         // Timestamps of decoded frames are then in the stream's time base, as the packets'.
         decoder.set_packet_time_base(stream.time_base());
         let decoder = decoder.video().map_err(|e| {

@@ -3,6 +3,7 @@
 
 mod learn;
 mod preprocess;
+mod scenecut;
 
 use crate::cmd::eval::{EvalArgs, evaluate};
 use crate::output::{print_json, print_text};
@@ -31,6 +32,9 @@ pub enum Stage {
     Train,
     /// ms per single-image inference of the small network, 1 thread and all, against PyTorch.
     Infer,
+    /// Scene-cut detection frames/s on a 320x240 video, against PySceneDetect and decoding
+    /// alone; hard-cut F1 on the shared clips beside PySceneDetect's.
+    Scenecut,
 }
 
 /// Arguments of `indoorloc bench`.
@@ -55,6 +59,10 @@ pub struct BenchArgs {
     /// current folder, or $INDOORLOC_PEERS).
     #[arg(long, value_name = "DIR")]
     peers: Option<PathBuf>,
+    /// Video for the scenecut benchmark (default:
+    /// ../shared/data/scenecut_real/opencv_samples_cuts.mp4).
+    #[arg(long, value_name = "FILE")]
+    video: Option<PathBuf>,
     /// Timed training steps per input size in the train benchmark.
     #[arg(long, default_value_t = 10)]
     train_steps: usize,
@@ -132,6 +140,8 @@ struct BenchOutput {
     preprocess: Vec<preprocess::ViewFigures>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     learn: Vec<learn::LearnFigures>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    scenecut: Option<scenecut::ScenecutFigures>,
 }
 
 /// Runs `indoorloc bench`.
@@ -147,6 +157,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             Stage::Render,
             Stage::Train,
             Stage::Infer,
+            Stage::Scenecut,
         ],
     };
     let mut out = BenchOutput {
@@ -154,6 +165,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         render: Vec::new(),
         preprocess: Vec::new(),
         learn: Vec::new(),
+        scenecut: None,
     };
     let (train, infer) = (
         stages.contains(&Stage::Train),
@@ -180,6 +192,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 )?
             }
             Stage::Train | Stage::Infer => {}
+            Stage::Scenecut => {
+                out.scenecut = Some(scenecut::bench(
+                    args.video.as_deref(),
+                    args.repeat,
+                    peer_python(args),
+                )?)
+            }
         }
     }
     if args.json {
@@ -187,6 +206,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     } else {
         let mut text = preprocess::table(&out.preprocess);
         text.push_str(&learn::table(&out.learn));
+        if let Some(s) = &out.scenecut {
+            text.push_str(&scenecut::table(s));
+        }
         if !out.render.is_empty() {
             text.push_str(&format!(
                 "{:<10}{:>10}{:>9}{:>10}{:>12}\n",
