@@ -5,5 +5,6 @@ mod eval_cli;
 mod learn_cli;
 mod metrics_reference;
 mod preprocess_cli;
+mod scenecut_cli;
 mod synth_cli;
 mod util;
