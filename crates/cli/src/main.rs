@@ -41,6 +41,8 @@ enum Command {
     Localize(cmd::localize::LocalizeArgs),
     /// Scene cuts (and fades, dissolves) in a video or image folder, by visual rhythm.
     Scenecut(cmd::scenecut::ScenecutArgs),
+    /// Reproducible experiments (tables like a paper's, with an HTML report): `cuts`.
+    Study(cmd::study::StudyArgs),
     /// Speed figures of each stage, beside the reference peer where one is installed.
     Bench(cmd::bench::BenchArgs),
 }
@@ -56,6 +58,7 @@ fn main() -> ExitCode {
         Command::Train(args) => cmd::train::run(&args),
         Command::Localize(args) => cmd::localize::run(&args),
         Command::Scenecut(args) => cmd::scenecut::run(&args),
+        Command::Study(args) => cmd::study::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

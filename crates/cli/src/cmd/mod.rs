@@ -7,5 +7,6 @@ pub mod localize;
 pub mod parse;
 pub mod preprocess;
 pub mod scenecut;
+pub mod study;
 pub mod synth;
 pub mod train;

@@ -11,7 +11,7 @@
 //! demo continues where it stopped.
 
 mod page;
-mod scene;
+pub(crate) mod scene;
 
 use crate::cmd::train::train_with_progress;
 use crate::output::{print_json, print_text};
@@ -254,18 +254,31 @@ pub struct StageSeconds {
     pub total: f64,
 }
 
-/// Runs `indoorloc demo`.
-pub fn run(args: &DemoArgs) -> Result<()> {
-    let start = Instant::now();
+/// What steps 1 and 2 leave behind.
+pub(crate) struct Prepared {
+    setup: Setup,
+    /// The rendered dataset.
+    pub data_dir: PathBuf,
+    /// The trained model.
+    pub model_dir: PathBuf,
+    summary: learn::TrainSummary,
+    rendered: bool,
+    seconds: StageSeconds,
+}
+
+impl Prepared {
+    /// What was rendered.
+    pub fn scene(&self) -> &ScenePlan {
+        &self.setup.scene
+    }
+}
+
+/// Steps 1 and 2 of the demo: renders the dataset and trains the model (each reused when an
+/// earlier run left it), for the demo and for studies that need a trained model.
+pub(crate) fn render_and_train(args: &DemoArgs, say: &dyn Fn(&str)) -> Result<Prepared> {
     let (data_dir, model_dir) = (args.out.join("data"), args.out.join("model"));
     let setup = setup(args, &data_dir, &model_dir);
     let mut seconds = StageSeconds::default();
-    let say = |text: &str| {
-        if !args.json {
-            eprintln!("{text}");
-        }
-    };
-
     say(&format!(
         "1/4 rendering {} frames of building {} storey {} ({} camera, {}x{}) into {}",
         setup.scene.total_frames(),
@@ -289,6 +302,33 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let t = Instant::now();
     let summary = train_with_progress(&setup.train, !args.json)?;
     seconds.train = t.elapsed().as_secs_f64();
+
+    Ok(Prepared {
+        setup,
+        data_dir,
+        model_dir,
+        summary,
+        rendered,
+        seconds,
+    })
+}
+
+/// Runs `indoorloc demo`.
+pub fn run(args: &DemoArgs) -> Result<()> {
+    let start = Instant::now();
+    let say = |text: &str| {
+        if !args.json {
+            eprintln!("{text}");
+        }
+    };
+    let Prepared {
+        setup,
+        data_dir,
+        model_dir,
+        summary,
+        rendered,
+        mut seconds,
+    } = render_and_train(args, &say)?;
 
     say("3/4 localizing the held-out test walk");
     let t = Instant::now();
@@ -343,7 +383,11 @@ fn summary_task(setup: &Setup) -> Task {
 }
 
 /// The test walk's frames through the model, with errors.
-fn localize_test(data_dir: &Path, model_dir: &Path, mc: usize) -> Result<Vec<FrameResult>> {
+pub(crate) fn localize_test(
+    data_dir: &Path,
+    model_dir: &Path,
+    mc: usize,
+) -> Result<Vec<FrameResult>> {
     let ds = NativeDataset::open(data_dir)?;
     let loc = Localizer::load(model_dir)?;
     let index = ds.split_frames(SplitName::Test);

@@ -205,36 +205,116 @@ pub fn render(plan: &ScenePlan, dir: &Path, progress: &(dyn Fn(usize) + Sync)) -
                     .map(move |(k, f)| (start + k, f))
             })
             .collect();
-        shots.par_iter().try_for_each_init(
-            Renderer::new,
-            |renderer, &(index, frame)| -> Result<()> {
-                let opts = RenderOptions {
-                    mode: RenderMode::Textured,
-                    seed: plan.seed.wrapping_mul(1_000_003).wrapping_add(index as u64),
-                    ..RenderOptions::default()
-                };
-                let img = renderer.render(&scene, &camera, &frame.pose, &opts, &[])?;
-                let png = encode_rgb(&img.rgb)?;
-                let path = frames_dir.join(format!("{}.png", native::frame_name(index as u64)));
-                data::io::write_atomic(&path, |w| w.write_all(&png))
-                    .with_context(|| format!("cannot write {}", path.display()))?;
-                progress(counter.fetch_add(1, Ordering::Relaxed) + 1);
-                Ok(())
-            },
+        render_shots(
+            plan,
+            &scene,
+            &camera,
+            &shots,
+            &frames_dir,
+            &counter,
+            progress,
         )?;
     }
-    write_metadata(plan, dir, &seqs, &camera)?;
+    write_metadata(plan, dir, &seqs, &camera, None)?;
     data::io::write_atomic(&plan_path, |w| w.write_all(plan_text.as_bytes()))
         .with_context(|| format!("cannot write {}", plan_path.display()))?;
     Ok(true)
 }
 
-/// `dataset.toml`, `poses.csv`, `labels.csv` and `splits.toml` of the rendered sequences.
+/// Renders `shots` (`(frame number, pose)`) textured into `frames_dir`, in parallel.
+fn render_shots(
+    plan: &ScenePlan,
+    scene: &RenderScene,
+    camera: &geom::Camera,
+    shots: &[(usize, &PosedFrame)],
+    frames_dir: &Path,
+    counter: &AtomicUsize,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<()> {
+    shots
+        .par_iter()
+        .try_for_each_init(Renderer::new, |renderer, &(index, frame)| -> Result<()> {
+            let opts = RenderOptions {
+                mode: RenderMode::Textured,
+                seed: plan.seed.wrapping_mul(1_000_003).wrapping_add(index as u64),
+                ..RenderOptions::default()
+            };
+            let img = renderer.render(scene, camera, &frame.pose, &opts, &[])?;
+            let png = encode_rgb(&img.rgb)?;
+            let path = frames_dir.join(format!("{}.png", native::frame_name(index as u64)));
+            data::io::write_atomic(&path, |w| w.write_all(&png))
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            progress(counter.fetch_add(1, Ordering::Relaxed) + 1);
+            Ok(())
+        })
+}
+
+/// Walks through the plan's zone joined by hard cuts to other places (`segments` walks of
+/// `frames_per_segment` frames, normal appearance), rendered like the test walk into `dir` as a
+/// native dataset with one test sequence and its gold `cuts.csv`, unless `dir` already holds
+/// it. Returns the gold cuts.
+pub fn render_cut_walk(
+    plan: &ScenePlan,
+    dir: &Path,
+    segments: usize,
+    frames_per_segment: [usize; 2],
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Vec<u64>> {
+    let zone = zone_world(plan)?;
+    let cfg = WalkConfig::for_rig(rig(plan));
+    let (frames, cuts) = trajectory::with_cuts(
+        &zone,
+        &cfg,
+        segments,
+        frames_per_segment,
+        plan.seed * 1000 + 902,
+    )?;
+    let cuts: Vec<u64> = cuts.into_iter().map(|c| c as u64).collect();
+    let key = format!(
+        "{}segments = {segments}\nframes = {frames_per_segment:?}\n",
+        toml::to_string(plan)?
+    );
+    let plan_path = dir.join(PLAN_TOML);
+    if std::fs::read_to_string(&plan_path).is_ok_and(|t| t == key)
+        && dir.join(native::POSES_CSV).is_file()
+    {
+        return Ok(cuts);
+    }
+    let frames_dir = dir.join("frames");
+    std::fs::create_dir_all(&frames_dir)
+        .with_context(|| format!("cannot create {}", frames_dir.display()))?;
+    let world = world(plan, Variant::Normal)?;
+    let scene = RenderScene::new(&world)?;
+    let camera = camera(plan)?;
+    let shots: Vec<(usize, &PosedFrame)> = frames.iter().enumerate().collect();
+    render_shots(
+        plan,
+        &scene,
+        &camera,
+        &shots,
+        &frames_dir,
+        &AtomicUsize::new(0),
+        progress,
+    )?;
+    let seqs = [Sequence {
+        name: TEST_SEQ.into(),
+        variant: Variant::Normal,
+        frames,
+    }];
+    write_metadata(plan, dir, &seqs, &camera, Some(&cuts))?;
+    data::io::write_atomic(&plan_path, |w| w.write_all(key.as_bytes()))
+        .with_context(|| format!("cannot write {}", plan_path.display()))?;
+    Ok(cuts)
+}
+
+/// `dataset.toml`, `poses.csv`, `labels.csv`, `splits.toml` (and `cuts.csv` with `cuts`) of the
+/// rendered sequences.
 fn write_metadata(
     plan: &ScenePlan,
     dir: &Path,
     seqs: &[Sequence],
     camera: &geom::Camera,
+    cuts: Option<&[u64]>,
 ) -> Result<()> {
     let mut frames = Vec::new();
     for s in seqs {
@@ -287,6 +367,6 @@ fn write_metadata(
             settings,
         }),
     };
-    native::write_metadata(dir, &info, &Trajectory::new(frames), None, None, &splits)?;
+    native::write_metadata(dir, &info, &Trajectory::new(frames), None, cuts, &splits)?;
     Ok(())
 }

@@ -1,0 +1,367 @@
+//! `indoorloc study cuts`: what a scene cut costs a temporal localizer, and what detecting it
+//! saves (the scene-change impact table of the CNN+LSTM indoor APR work).
+//!
+//! 1. The demo's network (rendered and trained as `demo` does, reused when `--out` already
+//!    holds it).
+//! 2. A held-out walk through the same zone, joined by hard cuts to other places, with gold cuts.
+//! 3. Every frame localized by the network (MC-dropout uncertainty), and cuts detected by
+//!    `scenecut` on the rendered frames.
+//! 4. The frames fed through the temporal filter (`track::PoseFilter`: constant velocity,
+//!    gating) three ways: cuts not handled, reset at the gold cuts, reset at the detected cuts;
+//!    and the network alone for reference. Errors are split into frames just after a cut (the
+//!    cut frame and the `--cut-window` frames after it, as `eval --cuts` splits them) and the
+//!    others.
+
+use crate::cmd::demo::{self, DemoArgs, FrameResult, scene};
+use crate::output::{print_json, print_text};
+use crate::progress::bar;
+use anyhow::{Context, Result};
+use clap::{Args, Parser};
+use data::native::NativeDataset;
+use geom::{Mount, Pose};
+use learn::Task;
+use report::{HtmlReport, Series, Table};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use track::{FilterConfig, Measurement, PoseFilter};
+
+/// Arguments of `indoorloc study cuts`.
+#[derive(Args, Debug)]
+pub struct CutsArgs {
+    /// Folder for the data, the model and `report.html` (a demo folder is reused as it is).
+    #[arg(long, value_name = "DIR", default_value = "indoorloc-study-cuts")]
+    out: PathBuf,
+    /// The demo's quick setup (minutes) instead of the full one.
+    #[arg(long)]
+    quick: bool,
+    /// Walk segments joined by cuts in the test walk.
+    #[arg(long)]
+    segments: Option<usize>,
+    /// A frame counts as "after a cut" when it is at most this many frames after one.
+    #[arg(long, default_value_t = 10)]
+    cut_window: u64,
+    /// Monte-Carlo-dropout passes per frame.
+    #[arg(long, default_value_t = 16)]
+    mc: usize,
+    /// Print one JSON document instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// One row of the table.
+#[derive(Debug, Serialize)]
+struct Row {
+    /// `none`, `gold`, `detected` (the filter), or `network` (no temporal state).
+    handling: &'static str,
+    /// What produced the poses.
+    model: &'static str,
+    median_pos_m: f64,
+    median_pos_m_after_cut: f64,
+    median_pos_m_elsewhere: f64,
+    mean_pos_m_after_cut: f64,
+    median_rot_deg: f64,
+    /// Times the filter started over (first frame, resets, give-ups after refusals).
+    starts: usize,
+}
+
+/// What `study cuts` prints.
+#[derive(Debug, Serialize)]
+struct StudyOutput {
+    rows: Vec<Row>,
+    frames: usize,
+    gold_cuts: Vec<u64>,
+    detected_cuts: Vec<u64>,
+    detection: scenecut::Score,
+    frames_after_cut: usize,
+    report: PathBuf,
+}
+
+/// The demo arguments the study trains with: the demo's own defaults, quick or not.
+fn demo_args(args: &CutsArgs) -> Result<DemoArgs> {
+    #[derive(Parser)]
+    struct Wrap {
+        #[command(flatten)]
+        demo: DemoArgs,
+    }
+    let out = args.out.to_string_lossy().into_owned();
+    let mut argv = vec!["demo", "--out", out.as_str()];
+    if args.quick {
+        argv.push("--quick");
+    }
+    Ok(Wrap::try_parse_from(argv)?.demo)
+}
+
+/// Runs `indoorloc study cuts`.
+pub fn run(args: &CutsArgs) -> Result<()> {
+    let say = |text: &str| {
+        if !args.json {
+            eprintln!("{text}");
+        }
+    };
+    let demo_args = demo_args(args)?;
+    let prepared = demo::render_and_train(&demo_args, &say)?;
+    let plan = prepared.scene().clone();
+
+    let segments = args.segments.unwrap_or(if args.quick { 8 } else { 16 });
+    let cut_dir = args.out.join("cut-walk");
+    say(&format!(
+        "3/5 rendering a held-out walk of {segments} segments joined by cuts into {}",
+        cut_dir.display()
+    ));
+    let pb = bar((segments * 50) as u64, "render");
+    let gold = scene::render_cut_walk(&plan, &cut_dir, segments, [40, 60], &|n| {
+        pb.set_position(n as u64)
+    })?;
+    pb.finish_and_clear();
+
+    say("4/5 localizing every frame and detecting cuts");
+    let results = demo::localize_test(&cut_dir, &prepared.model_dir, args.mc)?;
+    let detection = scenecut::detect_input(
+        &cut_dir,
+        &scenecut::Config::default(),
+        Default::default(),
+        &mut |_, _| {},
+    )?;
+    let detected = detection.cut_frames();
+    let ds = NativeDataset::open(&cut_dir)?;
+
+    say("5/5 filtering and writing the report");
+    let pose3 = learn::Localizer::load(&prepared.model_dir)?
+        .meta()
+        .coding
+        .task
+        == Task::Pose3;
+    let errors = Errors {
+        ds: &ds,
+        pose3,
+        mount: ds.info.mount,
+    };
+    let near: Vec<bool> = results
+        .iter()
+        .map(|r| after_cut(r.index as u64, &gold, args.cut_window))
+        .collect();
+    let mut rows = vec![row(
+        "network",
+        "single-frame network",
+        &results
+            .iter()
+            .map(|r| (r.pos_err_m, r.rot_err_deg))
+            .collect::<Vec<_>>(),
+        &near,
+        0,
+    )];
+    let mut curves = vec![Series::new(
+        "network",
+        results.iter().map(|r| r.pos_err_m).collect::<Vec<_>>(),
+    )];
+    for (handling, resets) in [
+        ("none", &[][..]),
+        ("gold", &gold[..]),
+        ("detected", &detected[..]),
+    ] {
+        let (errs, starts) = filtered(&results, &errors, resets)?;
+        curves.push(Series::new(
+            format!("filter, cuts {handling}"),
+            errs.iter().map(|e| e.0).collect::<Vec<_>>(),
+        ));
+        rows.push(row(handling, "network + filter", &errs, &near, starts));
+    }
+    let score = scenecut::score_hard(
+        &detected,
+        &scenecut::Gold {
+            hard_cuts: gold.clone(),
+            gradual: Vec::new(),
+        },
+        2,
+    );
+    let report = write_report(&args.out, &rows, &curves, &gold, &detected, &score)?;
+    let out = StudyOutput {
+        frames: results.len(),
+        frames_after_cut: near.iter().filter(|&&n| n).count(),
+        gold_cuts: gold,
+        detected_cuts: detected,
+        detection: score,
+        rows,
+        report,
+    };
+    if args.json {
+        print_json(&out)
+    } else {
+        print_text(&text(&out))
+    }
+}
+
+/// Whether `frame` is a cut frame or at most `window` frames after one.
+fn after_cut(frame: u64, cuts: &[u64], window: u64) -> bool {
+    cuts.iter().any(|&c| frame >= c && frame <= c + window)
+}
+
+/// Errors of a pose against a frame's ground truth, as the demo measures them.
+struct Errors<'a> {
+    ds: &'a NativeDataset,
+    pose3: bool,
+    mount: Mount,
+}
+
+impl Errors<'_> {
+    fn of(&self, index: usize, pose: &Pose) -> Result<(f64, f64)> {
+        let truth = self
+            .ds
+            .trajectory
+            .frames
+            .get(index)
+            .context("frame index out of range")?
+            .pose;
+        Ok(if self.pose3 {
+            let (g, e) = (truth.to_pose3(self.mount), pose.to_pose3(self.mount));
+            (
+                (g.x - e.x).hypot(g.y - e.y),
+                geom::metrics::heading_error(g.heading, e.heading).to_degrees(),
+            )
+        } else {
+            (
+                geom::metrics::position_error(&truth, pose),
+                geom::metrics::rotation_error_deg(&truth, pose),
+            )
+        })
+    }
+}
+
+/// The frames through the filter, reset at `resets`; per-frame errors and the number of starts.
+fn filtered(
+    results: &[FrameResult],
+    errors: &Errors<'_>,
+    resets: &[u64],
+) -> Result<(Vec<(f64, f64)>, usize)> {
+    let mut filter = PoseFilter::new(FilterConfig::default());
+    let mut starts = 0;
+    let mut out = Vec::with_capacity(results.len());
+    for r in results {
+        if resets.binary_search(&(r.index as u64)).is_ok() {
+            filter.reset();
+        }
+        let t = errors.ds.trajectory.frames[r.index]
+            .t
+            .unwrap_or(r.index as f64 / errors.ds.info.frame_rate.max(1.0));
+        let fused = filter.push(&Measurement {
+            t,
+            pose: r.estimate.pose,
+            sigma_pos_m: r.estimate.sigma_pos_m,
+            sigma_rot_rad: r.estimate.sigma_rot_deg.to_radians(),
+        });
+        if fused.update == track::Update::Started {
+            starts += 1;
+        }
+        out.push(errors.of(r.index, &fused.pose)?);
+    }
+    Ok((out, starts))
+}
+
+fn median(v: impl Iterator<Item = f64>) -> f64 {
+    crate::output::median(&v.collect::<Vec<_>>())
+}
+
+fn row(
+    handling: &'static str,
+    model: &'static str,
+    errs: &[(f64, f64)],
+    near: &[bool],
+    starts: usize,
+) -> Row {
+    let after: Vec<f64> = errs
+        .iter()
+        .zip(near)
+        .filter(|(_, n)| **n)
+        .map(|(e, _)| e.0)
+        .collect();
+    Row {
+        handling,
+        model,
+        median_pos_m: median(errs.iter().map(|e| e.0)),
+        median_pos_m_after_cut: median(after.iter().copied()),
+        median_pos_m_elsewhere: median(
+            errs.iter()
+                .zip(near)
+                .filter(|(_, n)| !**n)
+                .map(|(e, _)| e.0),
+        ),
+        mean_pos_m_after_cut: after.iter().sum::<f64>() / after.len().max(1) as f64,
+        median_rot_deg: median(errs.iter().map(|e| e.1)),
+        starts,
+    }
+}
+
+fn table(rows: &[Row]) -> Table {
+    let mut t = Table::new(
+        "Scene cuts and the temporal filter",
+        [
+            "handling",
+            "poses from",
+            "median (m)",
+            "median after cut (m)",
+            "mean after cut (m)",
+            "median elsewhere (m)",
+            "median rot (°)",
+            "starts",
+        ],
+    );
+    for r in rows {
+        t.push_row([
+            r.handling.to_string(),
+            r.model.to_string(),
+            format!("{:.3}", r.median_pos_m),
+            format!("{:.3}", r.median_pos_m_after_cut),
+            format!("{:.3}", r.mean_pos_m_after_cut),
+            format!("{:.3}", r.median_pos_m_elsewhere),
+            format!("{:.2}", r.median_rot_deg),
+            r.starts.to_string(),
+        ]);
+    }
+    t
+}
+
+fn text(o: &StudyOutput) -> String {
+    format!(
+        "{}\n{} frames, {} within the cut window; gold cuts {:?}\ndetected cuts {:?} (P {:.2} R {:.2} F1 {:.2})\nreport: {}\n",
+        table(&o.rows).to_text(),
+        o.frames,
+        o.frames_after_cut,
+        o.gold_cuts,
+        o.detected_cuts,
+        o.detection.precision,
+        o.detection.recall,
+        o.detection.f1,
+        o.report.display()
+    )
+}
+
+fn write_report(
+    out: &Path,
+    rows: &[Row],
+    curves: &[Series],
+    gold: &[u64],
+    detected: &[u64],
+    score: &scenecut::Score,
+) -> Result<PathBuf> {
+    let mut page = HtmlReport::new("Scene cuts and temporal localization");
+    page.subtitle(
+        "A held-out walk through the demo's zone, joined by hard cuts to other places. The \
+         network localizes every frame; a constant-velocity filter with outlier gating smooths \
+         them, with cuts not handled, reset at the gold cuts, and reset at the cuts scenecut \
+         detects.",
+    );
+    page.section("Errors just after a cut and elsewhere");
+    page.table(&table(rows));
+    page.paragraph(format!(
+        "Gold cuts {gold:?}; detected {detected:?}: precision {:.2}, recall {:.2}, F1 {:.2} \
+         (±2 frames).",
+        score.precision, score.recall, score.f1
+    ));
+    page.section("Position error along the walk");
+    let markers: Vec<usize> = gold.iter().map(|&c| c as usize).collect();
+    let fig = report::error_over_time("Position error per frame", curves, &[], Some(&markers));
+    page.figure(&fig, "Vertical lines: gold cuts.")?;
+    let path = out.join("report.html");
+    page.write(&path)?;
+    Ok(path)
+}
