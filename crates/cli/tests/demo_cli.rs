@@ -24,6 +24,8 @@ fn demo_runs_end_to_end_and_resumes() -> TestResult {
             "gray,resize=40x30,norm=pm1",
             "--mc",
             "4",
+            "--cut-segments",
+            "2",
             "--json",
         ])?)
     };
@@ -38,7 +40,16 @@ fn demo_runs_end_to_end_and_resumes() -> TestResult {
         .ok_or("pearson_r")?;
     assert!((-1.0..=1.0).contains(&r), "R {r}");
     let html = std::fs::read_to_string(out.join("report").join("report.html"))?;
-    for needle in ["<svg", "data:image/png;base64", "median position error"] {
+    let after_cut = first["cuts"]["median_pos_m_after_cut_gold"]
+        .as_f64()
+        .ok_or("cuts")?;
+    assert!(after_cut.is_finite(), "{after_cut}");
+    for needle in [
+        "<svg",
+        "data:image/png;base64",
+        "median position error",
+        "Scene cuts",
+    ] {
         assert!(html.contains(needle), "report lacks {needle}");
     }
     assert!(out.join("report").join("frames.png").is_file());

@@ -83,6 +83,10 @@ pub struct DemoArgs {
     /// Jitter the training views (contrast, brightness, noise, occluders).
     #[arg(long)]
     augment: bool,
+    /// Walk segments joined by scene cuts in the walk that shows what cuts do to the temporal
+    /// filter (default: 8 with --quick, else 16; at least 2).
+    #[arg(long, value_name = "N")]
+    cut_segments: Option<usize>,
     /// Monte-Carlo-dropout passes per test frame.
     #[arg(long, default_value_t = 16)]
     mc: usize,
@@ -237,6 +241,22 @@ pub struct DemoOutput {
     pub reused_frames: bool,
     /// Epochs trained and the epoch kept.
     pub epochs: [usize; 2],
+    /// The walk with scene cuts through the temporal filter.
+    pub cuts: CutSummary,
+}
+
+/// Frames after a cut (the cut frame and [`CUT_WINDOW`] more) count as "after a cut".
+const CUT_WINDOW: u64 = 10;
+
+/// Median position error (m) just after a scene cut of the filtered walk, per cut handling.
+#[derive(Debug, Serialize)]
+pub struct CutSummary {
+    /// Cuts not handled (the filter gives up after refusing the new place for a while).
+    pub median_pos_m_after_cut_none: Option<f64>,
+    /// Filter reset at the gold cuts.
+    pub median_pos_m_after_cut_gold: Option<f64>,
+    /// Filter reset at the cuts `scenecut` detects.
+    pub median_pos_m_after_cut_detected: Option<f64>,
 }
 
 /// Wall-clock seconds per stage.
@@ -330,9 +350,17 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         mut seconds,
     } = render_and_train(args, &say)?;
 
-    say("3/4 localizing the held-out test walk");
+    say("3/4 localizing the held-out test walk, and a walk with scene cuts through the filter");
     let t = Instant::now();
     let results = localize_test(&data_dir, &model_dir, args.mc)?;
+    let cuts = crate::cmd::study::cuts::measure(
+        &setup.scene,
+        &model_dir,
+        &args.out.join("cut-walk"),
+        cut_segments(args)?,
+        CUT_WINDOW,
+        args.mc,
+    )?;
     seconds.localize = t.elapsed().as_secs_f64();
 
     say("4/4 evaluating and writing the report");
@@ -352,6 +380,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             uncertainty: &uncertainty,
             scale: setup.train.aleatoric,
             summary: &summary,
+            cuts: &cuts,
         },
     )?;
     seconds.report = t.elapsed().as_secs_f64();
@@ -370,12 +399,24 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         seconds,
         reused_frames: !rendered,
         epochs: [summary.epochs, summary.best_epoch],
+        cuts: CutSummary {
+            median_pos_m_after_cut_none: cuts.after_cut("none"),
+            median_pos_m_after_cut_gold: cuts.after_cut("gold"),
+            median_pos_m_after_cut_detected: cuts.after_cut("detected"),
+        },
     };
     if args.json {
         print_json(&out)
     } else {
         print_text(&human_text(&out, task))
     }
+}
+
+/// Segments of the cut walk.
+fn cut_segments(args: &DemoArgs) -> Result<usize> {
+    let n = args.cut_segments.unwrap_or(if args.quick { 8 } else { 16 });
+    anyhow::ensure!(n >= 2, "--cut-segments must be at least 2 (one cut)");
+    Ok(n)
 }
 
 fn summary_task(setup: &Setup) -> Task {
@@ -529,6 +570,14 @@ fn human_text(o: &DemoOutput, task: Task) -> String {
     for (m, d, f) in &o.accuracy {
         s += &format!("accuracy    {:>5.1} % within ({m} m, {d}°)\n", 100.0 * f);
     }
+    let m = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.2} m"));
+    s += &format!(
+        "scene cuts  median error just after a cut, filtered: {} not handled, {} reset at gold \
+         cuts, {} reset at detected cuts\n",
+        m(o.cuts.median_pos_m_after_cut_none),
+        m(o.cuts.median_pos_m_after_cut_gold),
+        m(o.cuts.median_pos_m_after_cut_detected)
+    );
     s += &format!(
         "uncertainty R = {:.2}; top 10 % sigma: median error {:.3} m vs {:.3} m for the rest\n\
          time        {:.0} s (render {:.0}, train {:.0}, localize {:.1}, report {:.1})\n\

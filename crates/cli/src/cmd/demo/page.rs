@@ -27,6 +27,8 @@ pub struct PageInput<'a> {
     pub scale: bool,
     /// How training went.
     pub summary: &'a TrainSummary,
+    /// The walk with scene cuts through the temporal filter.
+    pub cuts: &'a crate::cmd::study::cuts::CutFigures,
 }
 
 /// Writes `report.html` and the figures into `dir`; returns the page's path.
@@ -150,6 +152,8 @@ pub fn write(dir: &Path, input: &PageInput) -> Result<PathBuf> {
         "Test frames (left) beside the building rendered from the estimated pose (right), at \
          the best, median and worst errors.",
     );
+
+    crate::cmd::study::cuts::section(&mut page, input.cuts)?;
 
     page.section("Training");
     let mut t = report::Table::new(

@@ -91,46 +91,54 @@ fn demo_args(args: &CutsArgs) -> Result<DemoArgs> {
     Ok(Wrap::try_parse_from(argv)?.demo)
 }
 
-/// Runs `indoorloc study cuts`.
-pub fn run(args: &CutsArgs) -> Result<()> {
-    let say = |text: &str| {
-        if !args.json {
-            eprintln!("{text}");
-        }
-    };
-    let demo_args = demo_args(args)?;
-    let prepared = demo::render_and_train(&demo_args, &say)?;
-    let plan = prepared.scene().clone();
+/// Everything the cut experiment measured.
+#[derive(Debug)]
+pub(crate) struct CutFigures {
+    rows: Vec<Row>,
+    curves: Vec<Series>,
+    frames: usize,
+    frames_after_cut: usize,
+    gold: Vec<u64>,
+    detected: Vec<u64>,
+    score: scenecut::Score,
+    cut_window: u64,
+}
 
-    let segments = args.segments.unwrap_or(if args.quick { 8 } else { 16 });
-    let cut_dir = args.out.join("cut-walk");
-    say(&format!(
-        "3/5 rendering a held-out walk of {segments} segments joined by cuts into {}",
-        cut_dir.display()
-    ));
+impl CutFigures {
+    /// Median position error after a cut of the filter with this handling.
+    pub fn after_cut(&self, handling: &str) -> Option<f64> {
+        self.rows
+            .iter()
+            .find(|r| r.handling == handling)
+            .map(|r| r.median_pos_m_after_cut)
+    }
+}
+
+/// Renders the cut walk of `plan` into `dir` (reused when there), localizes it with the model in
+/// `model_dir`, detects its cuts and runs the filter the three ways plus the network alone.
+pub(crate) fn measure(
+    plan: &scene::ScenePlan,
+    model_dir: &Path,
+    dir: &Path,
+    segments: usize,
+    cut_window: u64,
+    mc: usize,
+) -> Result<CutFigures> {
     let pb = bar((segments * 50) as u64, "render");
-    let gold = scene::render_cut_walk(&plan, &cut_dir, segments, [40, 60], &|n| {
+    let gold = scene::render_cut_walk(plan, dir, segments, [40, 60], &|n| {
         pb.set_position(n as u64)
     })?;
     pb.finish_and_clear();
-
-    say("4/5 localizing every frame and detecting cuts");
-    let results = demo::localize_test(&cut_dir, &prepared.model_dir, args.mc)?;
+    let results = demo::localize_test(dir, model_dir, mc)?;
     let detection = scenecut::detect_input(
-        &cut_dir,
+        dir,
         &scenecut::Config::default(),
         Default::default(),
         &mut |_, _| {},
     )?;
     let detected = detection.cut_frames();
-    let ds = NativeDataset::open(&cut_dir)?;
-
-    say("5/5 filtering and writing the report");
-    let pose3 = learn::Localizer::load(&prepared.model_dir)?
-        .meta()
-        .coding
-        .task
-        == Task::Pose3;
+    let ds = NativeDataset::open(dir)?;
+    let pose3 = learn::Localizer::load(model_dir)?.meta().coding.task == Task::Pose3;
     let errors = Errors {
         ds: &ds,
         pose3,
@@ -138,21 +146,16 @@ pub fn run(args: &CutsArgs) -> Result<()> {
     };
     let near: Vec<bool> = results
         .iter()
-        .map(|r| after_cut(r.index as u64, &gold, args.cut_window))
+        .map(|r| after_cut(r.index as u64, &gold, cut_window))
         .collect();
-    let mut rows = vec![row(
-        "network",
-        "single-frame network",
-        &results
-            .iter()
-            .map(|r| (r.pos_err_m, r.rot_err_deg))
-            .collect::<Vec<_>>(),
-        &near,
-        0,
-    )];
+    let network: Vec<(f64, f64)> = results
+        .iter()
+        .map(|r| (r.pos_err_m, r.rot_err_deg))
+        .collect();
+    let mut rows = vec![row("network", "single-frame network", &network, &near, 0)];
     let mut curves = vec![Series::new(
         "network",
-        results.iter().map(|r| r.pos_err_m).collect::<Vec<_>>(),
+        network.iter().map(|e| e.0).collect::<Vec<_>>(),
     )];
     for (handling, resets) in [
         ("none", &[][..]),
@@ -174,14 +177,54 @@ pub fn run(args: &CutsArgs) -> Result<()> {
         },
         2,
     );
-    let report = write_report(&args.out, &rows, &curves, &gold, &detected, &score)?;
-    let out = StudyOutput {
+    Ok(CutFigures {
+        rows,
+        curves,
         frames: results.len(),
         frames_after_cut: near.iter().filter(|&&n| n).count(),
-        gold_cuts: gold,
-        detected_cuts: detected,
-        detection: score,
-        rows,
+        gold,
+        detected,
+        score,
+        cut_window,
+    })
+}
+
+/// Runs `indoorloc study cuts`.
+pub fn run(args: &CutsArgs) -> Result<()> {
+    let say = |text: &str| {
+        if !args.json {
+            eprintln!("{text}");
+        }
+    };
+    let demo_args = demo_args(args)?;
+    let prepared = demo::render_and_train(&demo_args, &say)?;
+    let segments = args.segments.unwrap_or(if args.quick { 8 } else { 16 });
+    let cut_dir = args.out.join("cut-walk");
+    say(&format!(
+        "3/4 a held-out walk of {segments} segments joined by cuts ({}): rendering, localizing, \
+         detecting cuts, filtering",
+        cut_dir.display()
+    ));
+    let figs = measure(
+        prepared.scene(),
+        &prepared.model_dir,
+        &cut_dir,
+        segments,
+        args.cut_window,
+        args.mc,
+    )?;
+    say("4/4 writing the report");
+    let mut page = HtmlReport::new("Scene cuts and temporal localization");
+    section(&mut page, &figs)?;
+    let report = args.out.join("report.html");
+    page.write(&report)?;
+    let out = StudyOutput {
+        frames: figs.frames,
+        frames_after_cut: figs.frames_after_cut,
+        gold_cuts: figs.gold,
+        detected_cuts: figs.detected,
+        detection: figs.score,
+        rows: figs.rows,
         report,
     };
     if args.json {
@@ -335,33 +378,24 @@ fn text(o: &StudyOutput) -> String {
     )
 }
 
-fn write_report(
-    out: &Path,
-    rows: &[Row],
-    curves: &[Series],
-    gold: &[u64],
-    detected: &[u64],
-    score: &scenecut::Score,
-) -> Result<PathBuf> {
-    let mut page = HtmlReport::new("Scene cuts and temporal localization");
-    page.subtitle(
-        "A held-out walk through the demo's zone, joined by hard cuts to other places. The \
-         network localizes every frame; a constant-velocity filter with outlier gating smooths \
-         them, with cuts not handled, reset at the gold cuts, and reset at the cuts scenecut \
-         detects.",
-    );
-    page.section("Errors just after a cut and elsewhere");
-    page.table(&table(rows));
+/// The experiment as a report section: the table, the detection score and the errors along
+/// the walk with the gold cuts marked.
+pub(crate) fn section(page: &mut HtmlReport, f: &CutFigures) -> Result<()> {
+    page.section("Scene cuts: errors just after a cut and elsewhere");
     page.paragraph(format!(
-        "Gold cuts {gold:?}; detected {detected:?}: precision {:.2}, recall {:.2}, F1 {:.2} \
-         (±2 frames).",
-        score.precision, score.recall, score.f1
+        "A held-out walk through the same zone, joined by hard cuts to other places ({} frames, \
+         {} of them a cut frame or within {} frames after one). The network localizes every \
+         frame; a constant-velocity filter with outlier gating smooths them, with cuts not \
+         handled, reset at the gold cuts, and reset at the cuts scenecut detects.",
+        f.frames, f.frames_after_cut, f.cut_window
     ));
-    page.section("Position error along the walk");
-    let markers: Vec<usize> = gold.iter().map(|&c| c as usize).collect();
-    let fig = report::error_over_time("Position error per frame", curves, &[], Some(&markers));
+    page.table(&table(&f.rows));
+    page.paragraph(format!(
+        "Gold cuts {:?}; detected {:?}: precision {:.2}, recall {:.2}, F1 {:.2} (±2 frames).",
+        f.gold, f.detected, f.score.precision, f.score.recall, f.score.f1
+    ));
+    let markers: Vec<usize> = f.gold.iter().map(|&c| c as usize).collect();
+    let fig = report::error_over_time("Position error per frame", &f.curves, &[], Some(&markers));
     page.figure(&fig, "Vertical lines: gold cuts.")?;
-    let path = out.join("report.html");
-    page.write(&path)?;
-    Ok(path)
+    Ok(())
 }

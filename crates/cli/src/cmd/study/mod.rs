@@ -1,7 +1,7 @@
 //! `indoorloc study NAME`: reproducible experiments, each a table like a paper's, written as
 //! `DIR/report.html` with `--json` rows.
 
-mod cuts;
+pub(crate) mod cuts;
 
 use anyhow::Result;
 use clap::{Args, Subcommand};
