@@ -34,7 +34,8 @@ pub struct CutsArgs {
     /// The demo's quick setup (minutes) instead of the full one.
     #[arg(long)]
     quick: bool,
-    /// Walk segments joined by cuts in the test walk.
+    /// Walk segments joined by cuts in the test walk (default: 8 with --quick, else 16; at
+    /// least 2).
     #[arg(long)]
     segments: Option<usize>,
     /// A frame counts as "after a cut" when it is at most this many frames after one.
@@ -199,6 +200,7 @@ pub fn run(args: &CutsArgs) -> Result<()> {
     let demo_args = demo_args(args)?;
     let prepared = demo::render_and_train(&demo_args, &say)?;
     let segments = args.segments.unwrap_or(if args.quick { 8 } else { 16 });
+    anyhow::ensure!(segments >= 2, "--segments must be at least 2 (one cut)");
     let cut_dir = args.out.join("cut-walk");
     say(&format!(
         "3/4 a held-out walk of {segments} segments joined by cuts ({}): rendering, localizing, \
