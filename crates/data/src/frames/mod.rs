@@ -11,10 +11,14 @@
 mod decode;
 mod folder;
 #[cfg(feature = "video")]
+mod parallel;
+#[cfg(feature = "video")]
 mod video;
 
 pub use decode::decode_image;
 pub use folder::{ImageFolder, natural_cmp};
+#[cfg(feature = "video")]
+pub use parallel::ParallelVideo;
 #[cfg(feature = "video")]
 pub use video::VideoFile;
 

@@ -82,6 +82,8 @@ pub struct VideoFile {
     rgb: ff::frame::Video,
     state: State,
     next_index: u64,
+    /// Timestamp (stream time base) of the frame returned last.
+    last_pts: Option<i64>,
     errors_in_a_row: u32,
 }
 
@@ -115,7 +117,7 @@ impl VideoFile {
     /// # Errors
     /// As [`open`](Self::open), and a zero width or height.
     pub fn open_scaled(path: &Path, size: Option<(u32, u32)>) -> Result<Self> {
-        Self::open_with(path, size, false)
+        Self::open_with(path, size, false, 0)
     }
 
     /// Like [`open`](Self::open), for analysis rather than display: the decoder skips its
@@ -126,10 +128,16 @@ impl VideoFile {
     /// # Errors
     /// As [`open`](Self::open).
     pub fn open_fast(path: &Path) -> Result<Self> {
-        Self::open_with(path, None, true)
+        Self::open_with(path, None, true, 0)
     }
 
-    fn open_with(path: &Path, size: Option<(u32, u32)>, fast: bool) -> Result<Self> {
+    /// The opener behind the public ones; `decode_threads = 0` picks the count from the cores.
+    pub(crate) fn open_with(
+        path: &Path,
+        size: Option<(u32, u32)>,
+        fast: bool,
+        decode_threads: usize,
+    ) -> Result<Self> {
         let err = |msg: String| DataError::Frames {
             path: path.to_path_buf(),
             msg,
@@ -171,8 +179,12 @@ impl VideoFile {
         // frames of latency, which a file source does not mind. Each thread holds a frame in
         // flight, so the count is capped (FFmpeg's automatic count goes up to 16) to keep memory
         // small and leave cores to the stages that consume the frames.
-        let threads =
-            std::thread::available_parallelism().map_or(1, |n| n.get().min(MAX_DECODE_THREADS));
+        let threads = match decode_threads {
+            0 => {
+                std::thread::available_parallelism().map_or(1, |n| n.get().min(MAX_DECODE_THREADS))
+            }
+            n => n,
+        };
         ctx.set_threading(ff::codec::threading::Config {
             kind: ff::codec::threading::Type::Frame,
             count: threads,
@@ -206,6 +218,7 @@ impl VideoFile {
             rgb: ff::frame::Video::empty(),
             state: State::Reading,
             next_index: 0,
+            last_pts: None,
             errors_in_a_row: 0,
         })
     }
@@ -232,6 +245,29 @@ impl VideoFile {
     pub fn frame_size(&self) -> (u32, u32) {
         self.target
             .unwrap_or((self.decoder.width(), self.decoder.height()))
+    }
+
+    /// Timestamp (the stream's time base) of the frame returned last.
+    pub(crate) fn last_pts(&self) -> Option<i64> {
+        self.last_pts
+    }
+
+    /// Jumps to the keyframe at `pts` (stream time base) or the one before it, and empties the
+    /// decoder: the next frames come from there.
+    pub(crate) fn seek_keyframe(&mut self, pts: i64) -> Result<()> {
+        let tb = self
+            .time_base
+            .ok_or_else(|| self.error("cannot seek: the stream has no time base".into()))?;
+        // avformat_seek_file on all streams counts in AV_TIME_BASE (microseconds); rounding up
+        // keeps the wanted keyframe at or before the target.
+        let us = (pts as f64 * tb * f64::from(ff::ffi::AV_TIME_BASE)).ceil() as i64;
+        self.input
+            .seek(us, ..us)
+            .map_err(|e| self.error(format!("cannot seek to {pts}: {e}")))?;
+        self.decoder.flush();
+        self.state = State::Reading;
+        self.errors_in_a_row = 0;
+        Ok(())
     }
 
     fn error(&self, msg: String) -> DataError {
@@ -324,10 +360,9 @@ impl VideoFile {
     fn convert(&mut self) -> Result<Frame> {
         let index = self.next_index;
         self.next_index += 1;
+        self.last_pts = self.decoded.timestamp().or_else(|| self.decoded.pts());
         let t = self
-            .decoded
-            .timestamp()
-            .or_else(|| self.decoded.pts())
+            .last_pts
             .zip(self.time_base)
             .map(|(ts, tb)| ts as f64 * tb);
 
