@@ -3,7 +3,7 @@
 //! files (the reference figures stored beside the videos): F1 at least as high, and no hard cut
 //! on the clips without one.
 
-use scenecut::{Collect, Config, Gold, detect_input, score_hard};
+use scenecut::{Collect, Config, Detection, Gold, detect_input, score_hard};
 use std::path::{Path, PathBuf};
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
@@ -31,7 +31,12 @@ fn reference_f1(folder: &Path, video: &str) -> Result<f64, Box<dyn std::error::E
         .ok_or_else(|| "no f1".into())
 }
 
-fn check(folder: &str, video: &str, expect_no_cut: bool) -> TestResult {
+/// Detects, scores against the gold and PySceneDetect's best F1; returns what it found.
+fn check(
+    folder: &str,
+    video: &str,
+    expect_no_cut: bool,
+) -> Result<(Detection, Gold), Box<dyn std::error::Error>> {
     let dir = shared(folder);
     let path = dir.join(video);
     let gold = Gold::read(&dir.join("gold.json"), &path)?;
@@ -61,20 +66,13 @@ fn check(folder: &str, video: &str, expect_no_cut: bool) -> TestResult {
         assert!(cuts.is_empty(), "{video}: false cuts {cuts:?}");
     }
     assert_eq!(det.skipped, 0);
-    Ok(())
+    Ok((det, gold))
 }
 
 #[test]
 fn opencv_samples_all_four_cuts_including_the_same_view_jump() -> TestResult {
-    check("scenecut_real", "opencv_samples_cuts.mp4", false)?;
+    let (det, _) = check("scenecut_real", "opencv_samples_cuts.mp4", false)?;
     // beyond the peer: the jump within one static camera's view (frame 217) is found too
-    let dir = shared("scenecut_real");
-    let det = detect_input(
-        &dir.join("opencv_samples_cuts.mp4"),
-        &Config::default(),
-        Collect::default(),
-        &mut |_, _| {},
-    )?;
     assert_eq!(det.cut_frames(), vec![97, 217, 337, 405]);
     assert_eq!(det.frames, 475);
     Ok(())
@@ -82,21 +80,12 @@ fn opencv_samples_all_four_cuts_including_the_same_view_jump() -> TestResult {
 
 #[test]
 fn no_cut_in_the_unedited_surveillance_clip() -> TestResult {
-    check("scenecut_real", "opencv_vtest_nocut.mp4", true)
+    check("scenecut_real", "opencv_vtest_nocut.mp4", true).map(|_| ())
 }
 
 #[test]
 fn pyscenedetect_test_video_hard_cuts_and_its_fades() -> TestResult {
-    check("scenecut_pyscenedetect", "testvideo.mp4", false)?;
-    let dir = shared("scenecut_pyscenedetect");
-    let path = dir.join("testvideo.mp4");
-    let gold = Gold::read(&dir.join("gold.json"), &path)?;
-    let det = detect_input(
-        &path,
-        &Config::default(),
-        Collect::default(),
-        &mut |_, _| {},
-    )?;
+    let (det, gold) = check("scenecut_pyscenedetect", "testvideo.mp4", false)?;
     // every gold fade / dissolve is flagged, within 2 frames at both ends, and nothing else
     assert_eq!(det.gradual.len(), gold.gradual.len(), "{:?}", det.gradual);
     for (found, [a, b]) in det.gradual.iter().zip(&gold.gradual) {
@@ -107,10 +96,10 @@ fn pyscenedetect_test_video_hard_cuts_and_its_fades() -> TestResult {
 
 #[test]
 fn variable_frame_rate_movie_clip() -> TestResult {
-    check("scenecut_pyscenedetect", "goldeneye-vfr-drop3.mp4", false)
+    check("scenecut_pyscenedetect", "goldeneye-vfr-drop3.mp4", false).map(|_| ())
 }
 
 #[test]
 fn brightness_ramps_are_not_hard_cuts() -> TestResult {
-    check("scenecut_pyscenedetect", "fades.mp4", true)
+    check("scenecut_pyscenedetect", "fades.mp4", true).map(|_| ())
 }
