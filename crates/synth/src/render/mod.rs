@@ -1094,4 +1094,59 @@ mod tests {
         }
         assert!("wireframe".parse::<RenderMode>().is_err());
     }
+
+    /// A camera passing through a doorway of the default building is lit like one a step
+    /// before it: the doorway's low ceiling must not drop the rooms' lamps (it once rendered
+    /// such frames a third darker, which a scene-cut detector took for cuts).
+    #[test]
+    fn doorways_are_lit_like_the_rooms_around_them() -> R {
+        let world = crate::procedural::default_world(1, crate::Variant::Normal);
+        let scene = RenderScene::new(&world)?;
+        let camera = geom::Camera::from_hfov(160, 120, 1.2)?;
+        let storey_ceiling = |floor: f32| {
+            world
+                .regions
+                .iter()
+                .filter(|r| (r.floor_z - floor).abs() < 0.05)
+                .fold(0f32, |c, r| c.max(r.ceiling_z))
+        };
+        let mut doorways = 0;
+        let mut renderer = Renderer::new();
+        let mut mean = |pose: &Pose| -> R<f64> {
+            let img = renderer.render(&scene, &camera, pose, &RenderOptions::default(), &[])?;
+            let raw = img.rgb.as_raw();
+            Ok(raw.iter().map(|&c| f64::from(c)).sum::<f64>() / raw.len() as f64)
+        };
+        for r in world
+            .regions
+            .iter()
+            .filter(|r| r.ceiling_z < storey_ceiling(r.floor_z) - 0.3)
+        {
+            // Through the doorway: along its short side.
+            let c = [(r.min[0] + r.max[0]) / 2.0, (r.min[1] + r.max[1]) / 2.0];
+            let (dx, dy) = (r.max[0] - r.min[0], r.max[1] - r.min[1]);
+            let dir = if dx < dy { [1.0, 0.0] } else { [0.0, 1.0] };
+            let z = f64::from(r.floor_z) + 1.3;
+            let at = |back: f64| {
+                [
+                    f64::from(c[0]) - back * dir[0],
+                    f64::from(c[1]) - back * dir[1],
+                    z,
+                ]
+            };
+            let ahead = |back: f64| [at(back)[0] + 3.0 * dir[0], at(back)[1] + 3.0 * dir[1], z];
+            let inside = mean(&look_at(at(0.0), ahead(0.0))?)?;
+            let before = mean(&look_at(at(0.6), ahead(0.6))?)?;
+            assert!(
+                inside > 0.85 * before,
+                "doorway at {c:?}: {inside:.1} against {before:.1} a step before"
+            );
+            doorways += 1;
+            if doorways == 6 {
+                break;
+            }
+        }
+        assert!(doorways > 0, "the default building has no doorway regions");
+        Ok(())
+    }
 }

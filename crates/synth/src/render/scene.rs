@@ -688,19 +688,26 @@ impl RenderScene {
         }
     }
 
-    /// Floor and ceiling heights of the region containing `p`, if any.
+    /// Floor and ceiling heights of the storey at `p`, if `p` is in a labelled region: the
+    /// region's floor, and the highest ceiling of the regions on that floor. A doorway is a
+    /// region of its own with the door's height as its ceiling; taking that ceiling would leave
+    /// out every lamp of the rooms on either side and render a camera passing through the door
+    /// dark for a frame or two.
     pub(crate) fn storey_at(&self, p: [f32; 3]) -> Option<(f32, f32)> {
-        self.storeys
+        let here = self.storeys.iter().find(|s| {
+            p[0] >= s.min[0]
+                && p[0] <= s.max[0]
+                && p[1] >= s.min[1]
+                && p[1] <= s.max[1]
+                && p[2] >= s.floor
+                && p[2] < s.ceiling
+        })?;
+        let ceiling = self
+            .storeys
             .iter()
-            .find(|s| {
-                p[0] >= s.min[0]
-                    && p[0] <= s.max[0]
-                    && p[1] >= s.min[1]
-                    && p[1] <= s.max[1]
-                    && p[2] >= s.floor
-                    && p[2] < s.ceiling
-            })
-            .map(|s| (s.floor, s.ceiling))
+            .filter(|s| (s.floor - here.floor).abs() < 0.05)
+            .fold(here.ceiling, |c, s| c.max(s.ceiling));
+        Some((here.floor, ceiling))
     }
 
     /// True when the segment `from → to` hits a triangle of the scene (fixtures — emissive
