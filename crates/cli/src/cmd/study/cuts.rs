@@ -401,3 +401,29 @@ pub(crate) fn section(page: &mut HtmlReport, f: &CutFigures) -> Result<()> {
     page.figure(&fig, "Vertical lines: gold cuts.")?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_cut_window_counts_the_cut_frame_and_the_next_ones() {
+        let cuts = [10, 50];
+        let near: Vec<u64> = (0..70).filter(|&f| after_cut(f, &cuts, 3)).collect();
+        assert_eq!(near, vec![10, 11, 12, 13, 50, 51, 52, 53]);
+        assert!(!after_cut(5, &[], 10));
+    }
+
+    #[test]
+    fn rows_split_errors_after_cuts_from_the_rest() {
+        let errs = [(1.0, 1.0), (9.0, 2.0), (8.0, 3.0), (2.0, 4.0), (3.0, 5.0)];
+        let near = [false, true, true, false, false];
+        let r = row("gold", "network + filter", &errs, &near, 2);
+        assert_eq!(r.median_pos_m_after_cut, 8.5);
+        assert_eq!(r.mean_pos_m_after_cut, 8.5);
+        assert_eq!(r.median_pos_m_elsewhere, 2.0);
+        assert_eq!(r.median_pos_m, 3.0);
+        assert_eq!(r.median_rot_deg, 3.0);
+        assert_eq!(r.starts, 2);
+    }
+}
