@@ -8,7 +8,8 @@
 //!   images with Monte-Carlo-dropout uncertainty ([`Estimate`]).
 //! - [`net`]: the networks ([`Arch::Small`], [`Arch::Resnet18`], layer for layer as the PyTorch
 //!   peer `torch_apr.py`), [`loss`], [`head`] (what outputs mean), [`checkpoint`] (the folder
-//!   layout), [`dataset`] (views in memory).
+//!   layout), [`dataset`] (views in memory), [`window`] (which runs of frames a sequence model
+//!   may see as one stretch of time).
 //!
 //! # Backend
 //! burn 0.22 picks the backend by device: training runs on `Device::flex().autodiff()`,
@@ -37,6 +38,7 @@ pub mod loader;
 pub mod loss;
 pub mod net;
 pub mod train;
+pub mod window;
 
 pub use error::{LearnError, Result};
 pub use head::{PoseCoding, Task};
