@@ -9,7 +9,8 @@
 //! - [`net`]: the networks ([`Arch::Small`], [`Arch::Resnet18`], layer for layer as the PyTorch
 //!   peer `torch_apr.py`), [`loss`], [`head`] (what outputs mean), [`checkpoint`] (the folder
 //!   layout), [`dataset`] (views in memory), [`window`] (which runs of frames a sequence model
-//!   may see as one stretch of time).
+//!   may see as one stretch of time), [`seq`] (the LSTM of a CNN+LSTM sequence model and its
+//!   live, resettable stream).
 //!
 //! # Backend
 //! burn 0.22 picks the backend by device: training runs on `Device::flex().autodiff()`,
@@ -37,6 +38,7 @@ pub mod infer;
 pub mod loader;
 pub mod loss;
 pub mod net;
+pub mod seq;
 pub mod train;
 pub mod window;
 
