@@ -37,6 +37,9 @@ pub struct SpeedFigures {
     decode_only_fps: Option<f64>,
     /// `fps / decode_only_fps`.
     fraction_of_decode: Option<f64>,
+    /// Why there is no decode-only figure, when there is none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    decode_only_note: Option<String>,
     /// PySceneDetect's frames/s per detector, when it ran.
     peer_fps: Vec<(String, f64)>,
     /// Beside the faster PySceneDetect detector.
@@ -87,7 +90,10 @@ pub fn bench(video: Option<&Path>, repeat: usize, peer: Result<Peer>) -> Result<
     let ms = crate::output::median(&runs);
     let fps = frames as f64 / (ms / 1e3);
     let detector_fps = detector_only(&video, &cfg)?;
-    let decode_only_fps = ffmpeg_decode_fps(&video, frames).ok();
+    let (decode_only_fps, decode_only_note) = match ffmpeg_decode_fps(&video, frames) {
+        Ok(f) => (Some(f), None),
+        Err(e) => (None, Some(format!("{e:#}"))),
+    };
     let (peer_fps, peer_note) = match &peer {
         Ok(p) => match peer_runs(p, &video, repeat) {
             Ok(v) => (v, None),
@@ -104,6 +110,7 @@ pub fn bench(video: Option<&Path>, repeat: usize, peer: Result<Peer>) -> Result<
         detector_fps,
         fraction_of_decode: decode_only_fps.map(|d| fps / d),
         decode_only_fps,
+        decode_only_note,
         vs: VsPeer::new(
             "PySceneDetect (faster of content / adaptive)",
             ms,
@@ -278,6 +285,9 @@ pub fn table(f: &ScenecutFigures) -> String {
         s.fraction_of_decode
             .map_or("-".into(), |v| format!("{:.0} %", 100.0 * v)),
     );
+    if let Some(n) = &s.decode_only_note {
+        t.push_str(&format!("  decode only: {n}\n"));
+    }
     for (d, fps) in &s.peer_fps {
         t.push_str(&format!("  PySceneDetect {d}: {fps:.0} frames/s\n"));
     }
