@@ -141,7 +141,7 @@ pub fn run(args: &ScenecutArgs) -> Result<()> {
         data::cuts::write(&det.cut_frames(), out)?;
     }
     if let Some(png) = &args.plot {
-        write_plot(&det, gold.as_ref(), png)?;
+        write_plot(&det, &args.input, gold.as_ref(), png)?;
     }
     let output = ScenecutOutput {
         input: args.input.clone(),
@@ -208,7 +208,7 @@ fn table(o: &ScenecutOutput) -> String {
     t
 }
 
-fn write_plot(det: &Detection, gold: Option<&Gold>, png: &Path) -> Result<()> {
+fn write_plot(det: &Detection, input: &Path, gold: Option<&Gold>, png: &Path) -> Result<()> {
     let (Some(trace), Some(rhythm)) = (&det.trace, &det.rhythm) else {
         anyhow::bail!("the detector kept no series to plot");
     };
@@ -217,8 +217,8 @@ fn write_plot(det: &Detection, gold: Option<&Gold>, png: &Path) -> Result<()> {
         .context("no frame to draw in the visual rhythm")?;
     let title = format!(
         "Visual rhythm of {}",
-        det.source.file_name().map_or_else(
-            || det.source.display().to_string(),
+        input.file_name().map_or_else(
+            || input.display().to_string(),
             |n| n.to_string_lossy().into()
         )
     );
