@@ -12,7 +12,9 @@
 //!   channel: the difference of two neighbouring columns of the visual rhythm, blind to a change
 //!   of overall brightness (a lamp flickering, auto-exposure, turning from a lit wall to a
 //!   shaded one), which moves no camera. Gradual transitions, which are brightness changes, use
-//!   the plain difference.
+//!   the plain difference. Where the whole picture moved (a fast turn), the previous frame is
+//!   first moved back by that shift ([`crate::motion`]) and the smaller of the two differences
+//!   counts.
 //! - `baseline(t)`: the median of `score` over the `window` frames before and after `t` (not `t`
 //!   itself): a low-pass of the series that a single spike cannot move, but sustained motion
 //!   (a camera pan, a hand sweeping through the view) raises.
@@ -40,6 +42,7 @@
 //! starting value and the running variation.
 
 use crate::error::{CutError, Result};
+use crate::motion::Profiles;
 use crate::path::{PathKind, pixel_indices};
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
@@ -264,6 +267,10 @@ pub struct Detector {
     cfg: Config,
     size: (u32, u32),
     path: Vec<u32>,
+    /// The previous frame's thumbnail and profiles, for the motion-compensated score.
+    prev: Option<(Vec<u8>, Profiles)>,
+    /// Scratch buffers of the shifted comparison.
+    shifted: (Vec<u8>, Vec<u8>),
     entries: VecDeque<Entry>,
     spare: Vec<Vec<u8>>,
     last_cut: Option<u64>,
@@ -283,6 +290,8 @@ impl Detector {
             cfg,
             size: (width, height),
             path,
+            prev: None,
+            shifted: (Vec::new(), Vec::new()),
             entries: VecDeque::with_capacity(2 * cfg.window + 2),
             spare: Vec::new(),
             last_cut: None,
@@ -346,13 +355,22 @@ impl Detector {
             column.extend_from_slice(&rgb[o..o + 3]);
         }
         let stats = ColumnStats::of(&column);
+        let profiles = Profiles::of(rgb, w as usize, h as usize);
+        let moved = self.moved_score(rgb, &profiles);
         let (score, step) = match self.entries.back() {
-            Some(prev) => (
-                Some(normalised_diff(&prev.column, prev.stats, &column, stats)),
-                Some(mean_abs_diff(&prev.column, &column)),
-            ),
+            Some(prev) => {
+                let still = normalised_diff(&prev.column, prev.stats, &column, stats);
+                (
+                    Some(moved.map_or(still, |m| still.min(m))),
+                    Some(mean_abs_diff(&prev.column, &column)),
+                )
+            }
             None => (None, None),
         };
+        let mut keep = self.prev.take().map(|(buf, _)| buf).unwrap_or_default();
+        keep.clear();
+        keep.extend_from_slice(rgb);
+        self.prev = Some((keep, profiles));
         self.entries.push_back(Entry {
             index,
             column,
@@ -375,6 +393,39 @@ impl Detector {
         Ok(events)
     }
 
+    /// The score against the previous frame moved by the picture's overall shift (`None`
+    /// without a previous frame or when the picture did not move).
+    fn moved_score(&mut self, rgb: &[u8], profiles: &Profiles) -> Option<f32> {
+        let (prev_rgb, prev_profiles) = self.prev.as_ref()?;
+        let (w, h) = (self.size.0 as i32, self.size.1 as i32);
+        let (dx, dy) = profiles.shift_from(prev_profiles, (w / 12).max(1), (h / 12).max(1));
+        if (dx, dy) == (0, 0) {
+            return None;
+        }
+        let (cur, old) = &mut self.shifted;
+        cur.clear();
+        old.clear();
+        for &i in &self.path {
+            let (x, y) = ((i % w as u32) as i32, (i / w as u32) as i32);
+            let (px, py) = (x + dx, y + dy);
+            if px < 0 || py < 0 || px >= w || py >= h {
+                continue;
+            }
+            let (a, b) = (3 * i as usize, 3 * (py * w + px) as usize);
+            cur.extend_from_slice(&rgb[a..a + 3]);
+            old.extend_from_slice(&prev_rgb[b..b + 3]);
+        }
+        if cur.len() < 3 * self.path.len() / 2 {
+            return None;
+        }
+        Some(normalised_diff(
+            old,
+            ColumnStats::of(old),
+            cur,
+            ColumnStats::of(cur),
+        ))
+    }
+
     /// Decides the frames still waiting (with the frames that exist after them) and closes a
     /// transition in progress. The detector is then empty and ready for a new input.
     pub fn finish(&mut self) -> Vec<Event> {
@@ -386,6 +437,7 @@ impl Detector {
         }
         self.end_run(&mut events);
         self.entries.clear();
+        self.prev = None;
         self.last_cut = None;
         events
     }

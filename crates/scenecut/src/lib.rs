@@ -20,6 +20,7 @@
 
 mod detector;
 mod error;
+mod motion;
 mod path;
 mod rhythm;
 mod score;
