@@ -29,7 +29,7 @@
 //! - Not a cut within `min_gap` frames after the previous one.
 //!
 //! The decision for `t` waits for frames up to `t + window`: the detector's latency. Memory is
-//! `2 · window + 1` columns whatever the length of the input.
+//! `2 · window + 1` columns and one thumbnail whatever the length of the input.
 //!
 //! # Gradual transitions
 //! Fades and dissolves change every pixel a little per frame, in one direction. A run of frames
