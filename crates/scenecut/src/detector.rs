@@ -273,6 +273,8 @@ pub struct Detector {
     shifted: (Vec<u8>, Vec<u8>),
     entries: VecDeque<Entry>,
     spare: Vec<Vec<u8>>,
+    /// Scratch buffer of the neighbours' scores (the decision runs once per frame).
+    neighbours: Vec<f32>,
     last_cut: Option<u64>,
     run: Option<Run>,
     trace: Option<Trace>,
@@ -294,6 +296,7 @@ impl Detector {
             shifted: (Vec::new(), Vec::new()),
             entries: VecDeque::with_capacity(2 * cfg.window + 2),
             spare: Vec::new(),
+            neighbours: Vec::with_capacity(2 * cfg.window),
             last_cut: None,
             run: None,
             trace: None,
@@ -451,14 +454,15 @@ impl Detector {
             return;
         };
         let k = self.cfg.window;
-        let mut neighbours: Vec<f32> = self
-            .entries
-            .range(at.saturating_sub(k)..(at + 1 + k).min(self.entries.len()))
-            .enumerate()
-            .filter(|&(i, _)| i + at.saturating_sub(k) != at)
-            .filter_map(|(_, e)| e.score)
-            .collect();
-        let baseline = median(&mut neighbours);
+        let lo = at.saturating_sub(k);
+        let hi = (at + 1 + k).min(self.entries.len());
+        self.neighbours.clear();
+        self.neighbours.extend(
+            (lo..hi)
+                .filter(|&i| i != at)
+                .filter_map(|i| self.entries[i].score),
+        );
+        let baseline = median(&mut self.neighbours);
         let threshold = self.cfg.threshold(baseline);
         self.record(index, score, baseline, threshold);
         let spaced = self.last_cut.is_none_or(|c| index - c >= self.cfg.min_gap);

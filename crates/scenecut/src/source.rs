@@ -175,7 +175,7 @@ pub fn detect_input(
         if let Some(r) = rhythm {
             r.push(pixels);
         }
-        sort_events(events, &mut out);
+        sort_events(events, &mut out.cuts, &mut out.gradual);
         out.frames += 1;
         progress(out.frames, expected);
     }
@@ -188,8 +188,7 @@ pub fn detect_input(
             },
         }));
     };
-    let events = det.finish();
-    sort_events(events, &mut out);
+    sort_events(det.finish(), &mut out.cuts, &mut out.gradual);
     out.thumb_size = size;
     out.trace = det.trace().cloned();
     out.rhythm = rhythm;
@@ -197,11 +196,12 @@ pub fn detect_input(
     Ok(out)
 }
 
-fn sort_events(events: Vec<Event>, out: &mut Detection) {
+/// Files events into hard cuts and gradual transitions.
+fn sort_events(events: Vec<Event>, cuts: &mut Vec<Cut>, gradual: &mut Vec<Gradual>) {
     for e in events {
         match e {
-            Event::Cut(c) => out.cuts.push(c),
-            Event::Gradual(g) => out.gradual.push(g),
+            Event::Cut(c) => cuts.push(c),
+            Event::Gradual(g) => gradual.push(g),
         }
     }
 }
@@ -218,23 +218,10 @@ pub fn detect_thumbnails<'a>(
     thumbs: impl IntoIterator<Item = (u64, &'a [u8])>,
 ) -> Result<(Vec<Cut>, Vec<Gradual>)> {
     let mut det = Detector::new(*cfg, size.0, size.1)?;
-    let mut out = Detection {
-        source: PathBuf::new(),
-        cuts: Vec::new(),
-        gradual: Vec::new(),
-        frames: 0,
-        skipped: 0,
-        first_error: None,
-        video_fps: None,
-        thumb_size: size,
-        seconds: 0.0,
-        trace: None,
-        rhythm: None,
-    };
+    let (mut cuts, mut gradual) = (Vec::new(), Vec::new());
     for (index, rgb) in thumbs {
-        let events = det.push(index, rgb)?;
-        sort_events(events, &mut out);
+        sort_events(det.push(index, rgb)?, &mut cuts, &mut gradual);
     }
-    sort_events(det.finish(), &mut out);
-    Ok((out.cuts, out.gradual))
+    sort_events(det.finish(), &mut cuts, &mut gradual);
+    Ok((cuts, gradual))
 }

@@ -78,12 +78,12 @@ impl ParallelVideo {
     /// # Errors
     /// The file cannot be opened as a video (as [`VideoFile::open`]).
     pub fn open(path: &Path, fast: bool, workers: usize) -> Result<Option<ParallelVideo>> {
-        let probe = VideoFile::open_with(path, None, fast, 1)?;
-        let (fps, frame_size) = (probe.fps(), probe.frame_size());
-        drop(probe);
         if workers < 2 {
             return Ok(None);
         }
+        let probe = VideoFile::open_with(path, None, fast, 1)?;
+        let (fps, frame_size) = (probe.fps(), probe.frame_size());
+        drop(probe);
         let Some((mut pts, keyframes)) = packet_table(path)? else {
             return Ok(None);
         };

@@ -20,7 +20,7 @@ use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use data::native::{NativeDataset, SplitName};
 use geom::metrics::{Pose3Evaluation, PoseEvaluation, pearson};
-use geom::{Pose, Pose3};
+use geom::{Mount, Pose, Pose3};
 use learn::{Arch, Estimate, Localizer, Schedule, Task, TrainConfig};
 use rayon::prelude::*;
 use scene::ScenePlan;
@@ -352,7 +352,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
 
     say("3/4 localizing the held-out test walk, and a walk with scene cuts through the filter");
     let t = Instant::now();
-    let results = localize_test(&data_dir, &model_dir, args.mc)?;
+    let ds = NativeDataset::open(&data_dir)?;
+    let results = localize_test(&ds, &model_dir, args.mc)?;
     let cuts = crate::cmd::study::cuts::measure(
         &setup.scene,
         &model_dir,
@@ -365,7 +366,6 @@ pub fn run(args: &DemoArgs) -> Result<()> {
 
     say("4/4 evaluating and writing the report");
     let t = Instant::now();
-    let ds = NativeDataset::open(&data_dir)?;
     let task = summary_task(&setup);
     let uncertainty = UncertaintyFigures::of(&results)?;
     let eval = Evaluation::of(&results, task)?;
@@ -425,11 +425,10 @@ fn summary_task(setup: &Setup) -> Task {
 
 /// The test walk's frames through the model, with errors.
 pub(crate) fn localize_test(
-    data_dir: &Path,
+    ds: &NativeDataset,
     model_dir: &Path,
     mc: usize,
 ) -> Result<Vec<FrameResult>> {
-    let ds = NativeDataset::open(data_dir)?;
     let loc = Localizer::load(model_dir)?;
     let index = ds.split_frames(SplitName::Test);
     let views = index
@@ -449,18 +448,7 @@ pub(crate) fn localize_test(
         .zip(estimates)
         .map(|(i, estimate)| {
             let truth = ds.trajectory.frames[i].pose;
-            let (pos_err_m, rot_err_deg) = if pose3 {
-                let (g, e): (Pose3, Pose3) = (truth.to_pose3(mount), estimate.pose.to_pose3(mount));
-                (
-                    (g.x - e.x).hypot(g.y - e.y),
-                    geom::metrics::heading_error(g.heading, e.heading).to_degrees(),
-                )
-            } else {
-                (
-                    geom::metrics::position_error(&truth, &estimate.pose),
-                    geom::metrics::rotation_error_deg(&truth, &estimate.pose),
-                )
-            };
+            let (pos_err_m, rot_err_deg) = pose_errors(&truth, &estimate.pose, pose3, mount);
             FrameResult {
                 index: i,
                 truth,
@@ -470,6 +458,23 @@ pub(crate) fn localize_test(
             }
         })
         .collect())
+}
+
+/// Position (m) and rotation (°) error of `estimate` against `truth`; for a 3-DoF model
+/// (`pose3`) the planar position error and the heading error.
+pub(crate) fn pose_errors(truth: &Pose, estimate: &Pose, pose3: bool, mount: Mount) -> (f64, f64) {
+    if pose3 {
+        let (g, e): (Pose3, Pose3) = (truth.to_pose3(mount), estimate.to_pose3(mount));
+        (
+            (g.x - e.x).hypot(g.y - e.y),
+            geom::metrics::heading_error(g.heading, e.heading).to_degrees(),
+        )
+    } else {
+        (
+            geom::metrics::position_error(truth, estimate),
+            geom::metrics::rotation_error_deg(truth, estimate),
+        )
+    }
 }
 
 /// The headline figures of the test walk, for either task.

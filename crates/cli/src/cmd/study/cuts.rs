@@ -15,11 +15,12 @@
 use crate::cmd::demo::{self, DemoArgs, FrameResult, scene};
 use crate::output::{print_json, print_text};
 use crate::progress::bar;
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, Parser};
 use data::native::NativeDataset;
-use geom::{Mount, Pose};
+use geom::Pose;
 use learn::Task;
+use learn::checkpoint::ModelMeta;
 use report::{HtmlReport, Series, Table};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -130,7 +131,8 @@ pub(crate) fn measure(
         pb.set_position(n as u64)
     })?;
     pb.finish_and_clear();
-    let results = demo::localize_test(dir, model_dir, mc)?;
+    let ds = NativeDataset::open(dir)?;
+    let results = demo::localize_test(&ds, model_dir, mc)?;
     let detection = scenecut::detect_input(
         dir,
         &scenecut::Config::default(),
@@ -138,12 +140,9 @@ pub(crate) fn measure(
         &mut |_, _| {},
     )?;
     let detected = detection.cut_frames();
-    let ds = NativeDataset::open(dir)?;
-    let pose3 = learn::Localizer::load(model_dir)?.meta().coding.task == Task::Pose3;
     let errors = Errors {
         ds: &ds,
-        pose3,
-        mount: ds.info.mount,
+        pose3: ModelMeta::read(model_dir)?.coding.task == Task::Pose3,
     };
     let near: Vec<bool> = results
         .iter()
@@ -163,7 +162,7 @@ pub(crate) fn measure(
         ("gold", &gold[..]),
         ("detected", &detected[..]),
     ] {
-        let (errs, starts) = filtered(&results, &errors, resets)?;
+        let (errs, starts) = filtered(&results, &errors, resets);
         curves.push(Series::new(
             format!("filter, cuts {handling}"),
             errs.iter().map(|e| e.0).collect::<Vec<_>>(),
@@ -241,34 +240,16 @@ fn after_cut(frame: u64, cuts: &[u64], window: u64) -> bool {
     cuts.iter().any(|&c| frame >= c && frame <= c + window)
 }
 
-/// Errors of a pose against a frame's ground truth, as the demo measures them.
+/// The dataset's frame times and the error measure of the model's task.
 struct Errors<'a> {
     ds: &'a NativeDataset,
     pose3: bool,
-    mount: Mount,
 }
 
 impl Errors<'_> {
-    fn of(&self, index: usize, pose: &Pose) -> Result<(f64, f64)> {
-        let truth = self
-            .ds
-            .trajectory
-            .frames
-            .get(index)
-            .context("frame index out of range")?
-            .pose;
-        Ok(if self.pose3 {
-            let (g, e) = (truth.to_pose3(self.mount), pose.to_pose3(self.mount));
-            (
-                (g.x - e.x).hypot(g.y - e.y),
-                geom::metrics::heading_error(g.heading, e.heading).to_degrees(),
-            )
-        } else {
-            (
-                geom::metrics::position_error(&truth, pose),
-                geom::metrics::rotation_error_deg(&truth, pose),
-            )
-        })
+    /// Errors of `pose` against frame `r`'s ground truth, as the demo measures them.
+    fn of(&self, r: &FrameResult, pose: &Pose) -> (f64, f64) {
+        demo::pose_errors(&r.truth, pose, self.pose3, self.ds.info.mount)
     }
 }
 
@@ -277,7 +258,7 @@ fn filtered(
     results: &[FrameResult],
     errors: &Errors<'_>,
     resets: &[u64],
-) -> Result<(Vec<(f64, f64)>, usize)> {
+) -> (Vec<(f64, f64)>, usize) {
     let mut filter = PoseFilter::new(FilterConfig::default());
     let mut starts = 0;
     let mut out = Vec::with_capacity(results.len());
@@ -297,9 +278,9 @@ fn filtered(
         if fused.update == track::Update::Started {
             starts += 1;
         }
-        out.push(errors.of(r.index, &fused.pose)?);
+        out.push(errors.of(r, &fused.pose));
     }
-    Ok((out, starts))
+    (out, starts)
 }
 
 fn median(v: impl Iterator<Item = f64>) -> f64 {
