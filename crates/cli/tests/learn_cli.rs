@@ -186,3 +186,75 @@ fn bench_infer_reports_each_input_and_thread_count() -> TestResult {
     }
     Ok(())
 }
+
+/// `train --window` adds a sequence model; `localize` then runs it over each recording (state
+/// carried, started over per sequence) and `eval` measures the stored validation error again;
+/// `--single` uses the single-frame network alone.
+#[test]
+fn a_sequence_model_localizes_recordings_as_it_was_validated() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let (ds, model) = (dir.path().join("ds"), dir.path().join("model"));
+    let (ds_s, model_s) = (ds.to_str().ok_or("path")?, model.to_str().ok_or("path")?);
+    json_of(&indoorloc(&[
+        "synth",
+        "--out",
+        ds_s,
+        "--frames",
+        "60",
+        "--sequences",
+        "5",
+        "--size",
+        "64x48",
+        "--no-depth",
+        "--no-planes",
+        "--json",
+    ])?)?;
+    let t = json_of(&indoorloc(&[
+        "train",
+        "--data",
+        ds_s,
+        "--out",
+        model_s,
+        "--batch",
+        "8",
+        "--view",
+        "resize=32x24,norm=pm1",
+        "--epochs",
+        "1",
+        "--window",
+        "4",
+        "--lstm-units",
+        "16",
+        "--seq-epochs",
+        "2",
+        "--json",
+    ])?)?;
+    assert_eq!(t["sequence"]["window"], 4);
+    assert!(t["sequence"]["windows"].as_u64().ok_or("windows")? > 0);
+    let median_of = |extra: &[&str]| -> TestResult<f64> {
+        let est = dir.path().join("val.jsonl");
+        let est_s = est.to_str().ok_or("path")?;
+        let mut args = vec![
+            "localize", "--model", model_s, ds_s, "--split", "val", "--mc", "0", "--out", est_s,
+        ];
+        args.extend_from_slice(extra);
+        let out = indoorloc(&args)?;
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let e = json_of(&indoorloc(&[
+            "eval", "--gt", ds_s, "--est", est_s, "--json",
+        ])?)?;
+        Ok(e["median_pos_m"].as_f64().ok_or("median_pos_m")?)
+    };
+    let stored = |key: &str| t[key]["val_median_pos_m"].as_f64();
+    let sequence = median_of(&[])?;
+    let want = stored("sequence").ok_or("sequence median")?;
+    assert!((sequence - want).abs() < 1e-3, "{sequence} vs {want}");
+    let single = median_of(&["--single"])?;
+    let want = t["val_median_pos_m"].as_f64().ok_or("median")?;
+    assert!((single - want).abs() < 1e-3, "{single} vs {want}");
+    Ok(())
+}

@@ -218,15 +218,18 @@ pub fn state_optimizer_name(epoch: usize) -> String {
     format!("{STATE_DIR}/optimizer-{epoch:04}.bpk")
 }
 
-/// Removes state files that `keep` does not name (older epochs, leftovers of a killed run).
-/// Failing to remove one is harmless, so errors are ignored.
+/// Removes state files that `keep` does not name from the folder they are in (older epochs,
+/// leftovers of a killed run). Failing to remove one is harmless, so errors are ignored.
 pub fn prune_state(dir: &Path, keep: &StateFiles) {
-    let Ok(entries) = std::fs::read_dir(dir.join(STATE_DIR)) else {
+    let Some(folder) = Path::new(&keep.weights).parent() else {
+        return;
+    };
+    let Ok(entries) = std::fs::read_dir(dir.join(folder)) else {
         return;
     };
     for entry in entries.flatten() {
-        let name = format!("{STATE_DIR}/{}", entry.file_name().to_string_lossy());
-        if name != keep.weights && name != keep.optimizer {
+        let name = folder.join(entry.file_name());
+        if name != Path::new(&keep.weights) && name != Path::new(&keep.optimizer) {
             let _ = std::fs::remove_file(entry.path());
         }
     }

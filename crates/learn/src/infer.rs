@@ -92,6 +92,37 @@ impl Localizer {
         self
     }
 
+    /// The (folded, inference-only) network.
+    pub(crate) fn net(&self) -> &PoseNet {
+        &self.net
+    }
+
+    /// The device the network runs on.
+    pub(crate) fn device(&self) -> &Device {
+        &self.device
+    }
+
+    /// The seed of the MC dropout masks.
+    pub(crate) fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// Packs views into `[N, C, H, W]` values, checking each against the model's input shape.
+    pub(crate) fn pack(&self, views: &[View]) -> Result<Vec<f32>> {
+        let [c, h, w] = self.meta.input;
+        let mut inputs = Vec::with_capacity(views.len() * c * h * w);
+        for (i, v) in views.iter().enumerate() {
+            if [v.channels as usize, v.height as usize, v.width as usize] != self.meta.input {
+                return Err(LearnError::Input(format!(
+                    "view {i} is {}x{}x{}, the model takes {c}x{h}x{w} (view '{}')",
+                    v.channels, v.height, v.width, self.meta.view
+                )));
+            }
+            inputs.extend_from_slice(&v.data);
+        }
+        Ok(inputs)
+    }
+
     /// The checkpoint's description (task, view, metrics, ...).
     pub fn meta(&self) -> &ModelMeta {
         &self.meta
@@ -123,17 +154,7 @@ impl Localizer {
 
     /// Poses of many views, run in batches of [`CHUNK`].
     pub fn predict_batch(&self, views: &[View], mc_passes: usize) -> Result<Vec<Estimate>> {
-        let [c, h, w] = self.meta.input;
-        let mut inputs = Vec::with_capacity(views.len() * c * h * w);
-        for (i, v) in views.iter().enumerate() {
-            if [v.channels as usize, v.height as usize, v.width as usize] != self.meta.input {
-                return Err(LearnError::Input(format!(
-                    "view {i} is {}x{}x{}, the model takes {c}x{h}x{w} (view '{}')",
-                    v.channels, v.height, v.width, self.meta.view
-                )));
-            }
-            inputs.extend_from_slice(&v.data);
-        }
+        let inputs = self.pack(views)?;
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
         let passes = mc_passes.max(1);
         let p = if mc_passes > 1 {
@@ -193,6 +214,33 @@ pub fn run(
         rows.extend(values.chunks_exact(o).map(<[f32]>::to_vec));
     }
     Ok(rows)
+}
+
+/// Pooled features of packed inputs `[N, C, H, W]`, `N · F` values image-major, and `F`; run
+/// in chunks of [`CHUNK`].
+pub fn feature_rows(
+    net: &PoseNet,
+    inputs: &[f32],
+    [c, h, w]: [usize; 3],
+    device: &Device,
+) -> Result<(Vec<f32>, usize)> {
+    let per = c * h * w;
+    let n = inputs.len() / per.max(1);
+    let (mut values, mut width) = (Vec::new(), 0);
+    for start in (0..n).step_by(CHUNK) {
+        let b = CHUNK.min(n - start);
+        let data = inputs[start * per..(start + b) * per].to_vec();
+        let x = Tensor::<4>::from_data(TensorData::new(data, [b, c, h, w]), device);
+        let features = net.features(x);
+        width = features.dims()[1];
+        values.extend(
+            features
+                .into_data()
+                .try_to_vec::<f32>()
+                .map_err(|e| LearnError::Input(format!("cannot read the features: {e:?}")))?,
+        );
+    }
+    Ok((values, width))
 }
 
 /// Mean predicted position-error variance `d(d + 1)·b²` of output rows with a log-scale column

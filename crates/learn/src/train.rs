@@ -59,6 +59,23 @@ pub enum Schedule {
 }
 
 impl Schedule {
+    /// Checks the schedule's parameters.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(LearnError::Config(m));
+        match *self {
+            Schedule::Cosine { final_fraction } if !(0.0..=1.0).contains(&final_fraction) => bad(
+                format!("cosine final fraction {final_fraction} must be in [0, 1]"),
+            ),
+            Schedule::Step {
+                every_epochs,
+                gamma,
+            } if every_epochs == 0 || !(gamma.is_finite() && gamma > 0.0) => {
+                bad("step schedule needs every_epochs >= 1 and gamma > 0".into())
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// The rate at `step` of `total` steps (`steps_per_epoch` of them per epoch).
     pub fn lr(&self, base: f64, step: usize, total: usize, steps_per_epoch: usize) -> f64 {
         match *self {
@@ -204,18 +221,7 @@ impl TrainConfig {
                 "the per-image scale (aleatoric) already weighs the position term; use it or learned weighting, not both".into(),
             );
         }
-        match self.schedule {
-            Schedule::Cosine { final_fraction } if !(0.0..=1.0).contains(&final_fraction) => bad(
-                format!("cosine final fraction {final_fraction} must be in [0, 1]"),
-            ),
-            Schedule::Step {
-                every_epochs,
-                gamma,
-            } if every_epochs == 0 || !(gamma.is_finite() && gamma > 0.0) => {
-                bad("step schedule needs every_epochs >= 1 and gamma > 0".into())
-            }
-            _ => Ok(()),
-        }
+        self.schedule.validate()
     }
 
     /// The fields a resumed run must share with the checkpoint: all but the paths, `epochs`,

@@ -6,18 +6,13 @@
 //! cut at the window's first frame is allowed: the window then starts with the new scene, as a
 //! model whose state was reset at the cut sees it.
 
-/// Start positions (indices into `frames`) of the windows of `len` frames, every `stride`
-/// frames along each unbroken run. `frames` holds `(sequence, frame number)` in dataset order;
-/// `cuts` the frame numbers that start a new scene (any order).
-pub fn window_starts<S: PartialEq>(
-    frames: &[(S, u64)],
-    cuts: &[u64],
-    len: usize,
-    stride: usize,
-) -> Vec<usize> {
-    if len == 0 || stride == 0 || frames.len() < len {
-        return Vec::new();
-    }
+use std::ops::Range;
+
+/// The unbroken runs of `frames` (index ranges): a new run starts where the sequence changes,
+/// a frame number is skipped, or a cut (a frame number in `cuts`, any order) starts a new
+/// scene. `frames` holds `(sequence, frame number)` in dataset order. A sequence model's state
+/// lives within one run.
+pub fn runs<S: PartialEq>(frames: &[(S, u64)], cuts: &[u64]) -> Vec<Range<usize>> {
     let mut cuts = cuts.to_vec();
     cuts.sort_unstable();
     let breaks_before = |i: usize| -> bool {
@@ -27,19 +22,33 @@ pub fn window_starts<S: PartialEq>(
             || prev_number.checked_add(1) != Some(*number)
             || cuts.binary_search(number).is_ok()
     };
-    let mut starts = Vec::new();
+    let mut runs = Vec::new();
     let mut run_start = 0;
     for i in 1..=frames.len() {
         if i == frames.len() || breaks_before(i) {
-            let mut s = run_start;
-            while s + len <= i {
-                starts.push(s);
-                s += stride;
-            }
+            runs.push(run_start..i);
             run_start = i;
         }
     }
-    starts
+    runs
+}
+
+/// Start positions (indices into `frames`) of the windows of `len` frames, every `stride`
+/// frames along each unbroken run ([`runs`]).
+pub fn window_starts<S: PartialEq>(
+    frames: &[(S, u64)],
+    cuts: &[u64],
+    len: usize,
+    stride: usize,
+) -> Vec<usize> {
+    if len == 0 || stride == 0 || frames.len() < len {
+        return Vec::new();
+    }
+    runs(frames, cuts)
+        .into_iter()
+        .filter(|run| run.len() >= len)
+        .flat_map(|run| (run.start..=run.end - len).step_by(stride))
+        .collect()
 }
 
 #[cfg(test)]
@@ -91,6 +100,8 @@ mod tests {
         assert_eq!(window_starts(&frames, &[], 4, 3), vec![0, 3, 6]);
         // a cut at 5: windows up to frame 4, then from 5 on
         assert_eq!(window_starts(&frames, &[5], 4, 1), vec![0, 1, 5, 6]);
+        assert_eq!(runs(&frames, &[5, 99]), vec![0..5, 5..10]);
+        assert!(runs::<&str>(&[], &[]).is_empty());
         assert!(window_starts(&frames, &[], 11, 1).is_empty());
         assert!(window_starts(&frames, &[], 0, 1).is_empty());
         assert!(window_starts(&frames, &[], 2, 0).is_empty());

@@ -8,6 +8,7 @@ use data::formats::{self, Format};
 use data::frames::{self, FrameSource};
 use data::native::{NativeDataset, SplitName};
 use data::{PoseFrame, cambridge, sevenscenes};
+use learn::seq::{SeqLocalizer, SeqMeta, SeqTracker};
 use learn::{Estimate, Localizer};
 use serde::Serialize;
 use std::io::Write;
@@ -58,6 +59,23 @@ pub struct LocalizeArgs {
     /// Write to this file (atomically, when all frames are done) instead of stdout.
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
+    /// With a sequence model (trained with `train --window`): use only its single-frame
+    /// network, each frame alone.
+    #[arg(long)]
+    single: bool,
+    /// Scene cuts where a sequence model starts over (a cut list or `scenecut --json` output:
+    /// positions of frames in the input, from 0). A native dataset's own cuts.csv, new
+    /// sequences and gaps in frame numbers always start it over.
+    #[arg(long, value_name = "FILE")]
+    cuts: Option<PathBuf>,
+}
+
+/// Which model localizes: the single-frame network, or a sequence model's live tracker.
+// One per run, never stored in bulk: the size difference of the variants costs nothing.
+#[allow(clippy::large_enum_variant)]
+enum Estimator<'a> {
+    Single(Localizer),
+    Sequence(&'a SeqLocalizer, SeqTracker<'a>),
 }
 
 /// One output line in JSON lines format.
@@ -134,12 +152,27 @@ struct Item {
     name: String,
     seq: Option<String>,
     t: Option<f64>,
+    /// The frame starts a new stretch of time (a cut or a gap in a native dataset).
+    new_scene: bool,
     image: Result<image::DynamicImage>,
 }
 
 /// Runs `indoorloc localize`.
 pub fn run(args: &LocalizeArgs) -> Result<()> {
-    let loc = Localizer::load(&args.model)?;
+    let sequence = if SeqMeta::exists(&args.model) && !args.single {
+        Some(SeqLocalizer::load(&args.model)?)
+    } else {
+        None
+    };
+    let mut estimator = match &sequence {
+        Some(seq) => Estimator::Sequence(seq, seq.tracker(args.mc)),
+        None => Estimator::Single(Localizer::load(&args.model)?),
+    };
+    let cuts = match &args.cuts {
+        Some(path) => data::cuts::read(path)?,
+        None => Vec::new(),
+    };
+    let mut last_seq: Option<Option<String>> = None;
     let items = frames_of(&args.input, args.split)?;
     let mut buffer = Vec::new();
     let stdout = std::io::stdout();
@@ -161,9 +194,21 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
             }
         };
         let t0 = Instant::now();
-        let est = loc
-            .predict(&img, args.mc)
-            .with_context(|| format!("frame {}", item.name))?;
+        let est = match &mut estimator {
+            Estimator::Sequence(seq, tracker) => {
+                let starts_over = item.new_scene
+                    || cuts.binary_search(&(index as u64)).is_ok()
+                    || last_seq.as_ref().is_some_and(|s| *s != item.seq);
+                if starts_over {
+                    tracker.reset();
+                }
+                last_seq = Some(item.seq.clone());
+                let view = seq.base().view(&img)?;
+                tracker.step(&view)
+            }
+            Estimator::Single(loc) => loc.predict(&img, args.mc),
+        }
+        .with_context(|| format!("frame {}", item.name))?;
         let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
         PoseLine::new(item.name, item.seq, item.t, &est, latency_ms).write(
             args.format,
@@ -271,6 +316,7 @@ fn posed_frames(input: &Path, split: Split) -> Result<Option<Box<dyn Iterator<It
         name: f.name,
         seq: (!f.seq.is_empty()).then_some(f.seq),
         t: f.t,
+        new_scene: false,
     }))))
 }
 
@@ -292,13 +338,18 @@ fn frames_of(input: &Path, split: Split) -> Result<Box<dyn Iterator<Item = Item>
         if indices.is_empty() {
             bail!("{}: the {split:?} split has no frames", input.display());
         }
+        let cuts = ds.cuts.clone().unwrap_or_default();
+        let mut previous: Option<u64> = None;
         return Ok(Box::new(indices.into_iter().filter_map(move |i| {
             let frame = ds.frame_number(i)?;
             let f = &ds.trajectory.frames[i];
+            let gap = previous.is_some_and(|p| p + 1 != frame);
+            previous = Some(frame);
             Some(Item {
                 name: f.name.clone(),
                 seq: (!f.seq.is_empty()).then(|| f.seq.clone()),
                 t: f.t,
+                new_scene: gap || cuts.binary_search(&frame).is_ok(),
                 image: frames::decode_image(&ds.frame_path(frame)).map_err(Into::into),
             })
         })));
@@ -315,12 +366,14 @@ fn frames_of(input: &Path, split: Split) -> Result<Box<dyn Iterator<Item = Item>
             name: f.name,
             seq: None,
             t: f.t,
+            new_scene: false,
             image: Ok(image::DynamicImage::ImageRgb8(f.image)),
         },
         Err(e) => Item {
             name: format!("{i:06}"),
             seq: None,
             t: None,
+            new_scene: false,
             image: Err(e.into()),
         },
     })))

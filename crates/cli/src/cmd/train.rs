@@ -6,6 +6,7 @@ use crate::progress::bar;
 use anyhow::Result;
 use clap::Args;
 use indicatif::ProgressBar;
+use learn::seq::{SeqConfig, SeqEvent, SeqSummary};
 use learn::{Arch, OptimizerKind, Schedule, Task, TrainConfig, TrainEvent, TrainSummary};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -82,6 +83,20 @@ pub struct TrainArgs {
     /// Seed of initialisation, shuffling, augmentation and dropout.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Also train a sequence model (CNN+LSTM) over windows of K consecutive frames, on the
+    /// features of the single-frame network (trained first, or reused with --resume); written
+    /// beside it (seq.toml, seq.bpk), and used by `localize` on recordings.
+    #[arg(long, value_name = "K")]
+    window: Option<usize>,
+    /// LSTM units of the sequence model.
+    #[arg(long, default_value_t = 256)]
+    lstm_units: usize,
+    /// Epochs of the sequence model.
+    #[arg(long, default_value_t = 10)]
+    seq_epochs: usize,
+    /// β of the sequence model's loss (default: --beta).
+    #[arg(long)]
+    seq_beta: Option<f64>,
     /// Continue from the checkpoint in --out.
     #[arg(long)]
     resume: bool,
@@ -122,6 +137,21 @@ impl TrainArgs {
         cfg.resume = self.resume;
         cfg
     }
+
+    /// The sequence model's configuration, when --window asks for one.
+    pub fn seq_config(&self) -> Option<SeqConfig> {
+        let window = self.window?;
+        let mut cfg = SeqConfig::new(&self.data, &self.out);
+        cfg.window = window;
+        cfg.hidden = self.lstm_units;
+        cfg.epochs = self.seq_epochs;
+        cfg.beta = Some(self.seq_beta.unwrap_or(self.beta));
+        cfg.dropout = Some(self.dropout);
+        cfg.patience = Some(self.patience);
+        cfg.seed = self.seed;
+        cfg.resume = self.resume;
+        Some(cfg)
+    }
 }
 
 /// The `--json` document.
@@ -135,13 +165,41 @@ struct TrainOutput {
     stopped_early: bool,
     train_frames: usize,
     val_frames: usize,
+    /// The sequence model, with --window.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sequence: Option<SeqOutput>,
     seconds: f64,
+}
+
+/// The sequence part of the `--json` document.
+#[derive(Debug, Serialize)]
+struct SeqOutput {
+    window: usize,
+    windows: usize,
+    epochs: usize,
+    best_epoch: usize,
+    val_median_pos_m: f64,
+    val_median_rot_deg: f64,
 }
 
 /// Runs `indoorloc train`.
 pub fn run(args: &TrainArgs) -> Result<()> {
     let start = Instant::now();
     let summary = train_with_progress(&args.config(), !args.json)?;
+    let sequence = match args.seq_config() {
+        Some(cfg) => {
+            let seq = train_sequence_with_progress(&cfg, !args.json)?;
+            Some(SeqOutput {
+                window: cfg.window,
+                windows: seq.windows,
+                epochs: seq.epochs,
+                best_epoch: seq.best_epoch,
+                val_median_pos_m: seq.val_median_pos_m,
+                val_median_rot_deg: seq.val_median_rot_deg,
+            })
+        }
+        None => None,
+    };
     let out = TrainOutput {
         out: summary.out.clone(),
         epochs: summary.epochs,
@@ -151,13 +209,20 @@ pub fn run(args: &TrainArgs) -> Result<()> {
         stopped_early: summary.stopped_early,
         train_frames: summary.train_frames,
         val_frames: summary.val_frames,
+        sequence,
         seconds: start.elapsed().as_secs_f64(),
     };
     if args.json {
         print_json(&out)
     } else {
+        let seq = out.sequence.as_ref().map_or(String::new(), |s| {
+            format!(
+                "sequence  window {}, {} windows, epochs {} (best {}), val median {:.3} m, {:.2}°\n",
+                s.window, s.windows, s.epochs, s.best_epoch, s.val_median_pos_m, s.val_median_rot_deg
+            )
+        });
         print_text(&format!(
-            "model     {}\nepochs    {} (best {}{})\nval       median {:.3} m, {:.2}°\nframes    {} train, {} val\ntime      {:.1} s\n",
+            "model     {}\nepochs    {} (best {}{})\nval       median {:.3} m, {:.2}°\nframes    {} train, {} val\n{seq}time      {:.1} s\n",
             out.out.display(),
             out.epochs,
             out.best_epoch,
@@ -224,6 +289,64 @@ pub fn train_with_progress(cfg: &TrainConfig, lines: bool) -> Result<TrainSummar
         TrainEvent::EarlyStop { epoch, best_epoch } => {
             if lines {
                 eprintln!("early stop after epoch {epoch}; keeping epoch {best_epoch}");
+            }
+        }
+    });
+    if let Some(p) = pb {
+        p.finish_and_clear();
+    }
+    Ok(summary?)
+}
+
+/// Trains the sequence part with a progress bar per epoch and one line per finished epoch on
+/// stderr (`lines`: also when stderr is not a terminal).
+pub fn train_sequence_with_progress(cfg: &SeqConfig, lines: bool) -> Result<SeqSummary> {
+    let mut pb: Option<ProgressBar> = None;
+    let summary = learn::seq::train_sequence(cfg, &mut |event| match event {
+        SeqEvent::Features {
+            train,
+            val,
+            windows,
+            copies,
+            seconds,
+        } => {
+            if lines {
+                eprintln!(
+                    "sequence: {train} train / {val} val frames, {windows} windows of {}, {copies} feature copies, {seconds:.1} s",
+                    cfg.window
+                );
+            }
+        }
+        SeqEvent::Resumed { epoch } => eprintln!("sequence: resuming after epoch {epoch}"),
+        SeqEvent::Step {
+            epoch,
+            step,
+            steps,
+            loss,
+        } => {
+            let p = pb.get_or_insert_with(|| bar(*steps as u64, &format!("lstm {epoch}")));
+            p.set_position(*step as u64);
+            p.set_message(format!("lstm epoch {epoch} loss {loss:.3}"));
+        }
+        SeqEvent::Epoch(m) => {
+            if let Some(p) = pb.take() {
+                p.finish_and_clear();
+            }
+            if lines {
+                eprintln!(
+                    "lstm epoch {:>3}  loss {:.4}  val median {:.3} m {:.2}°  jitter {:.3} m  {:.1} s",
+                    m.epoch,
+                    m.train_loss,
+                    m.val_median_pos_m,
+                    m.val_median_rot_deg,
+                    m.val_jitter_m,
+                    m.seconds
+                );
+            }
+        }
+        SeqEvent::EarlyStop { epoch, best_epoch } => {
+            if lines {
+                eprintln!("sequence: early stop after epoch {epoch}; keeping epoch {best_epoch}");
             }
         }
     });

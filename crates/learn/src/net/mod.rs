@@ -167,20 +167,17 @@ impl NetConfig {
                 "a network needs at least one output".into(),
             ));
         }
-        // burn's random initialisers draw from one generator per backend, seeded globally, and
-        // parameters are initialised lazily on first use. Seeding and forcing every parameter
-        // under one lock keeps two models built at the same time (tests, threads) from
-        // interleaving their draws.
-        static INIT: Mutex<()> = Mutex::new(());
-        let _guard = INIT.lock().unwrap_or_else(|e| e.into_inner());
-        device.seed(seed);
+        Ok(seeded_init(device, seed, || self.build(device)))
+    }
+
+    fn build(&self, device: &Device) -> PoseNet {
         let Branch {
             backbone,
             pool,
             hidden,
             head,
         } = Branch::new(self, device);
-        let net = PoseNet {
+        PoseNet {
             backbone,
             pool,
             hidden,
@@ -192,13 +189,27 @@ impl NetConfig {
             log_vars: self
                 .learned_weighting
                 .then(|| Param::from_tensor(Tensor::from_floats([0.0, -3.0], device))),
-        };
-        net.visit(&mut Materialize);
-        Ok(net)
+        }
     }
 }
 
-/// Forces lazily initialised parameters (see [`NetConfig::init`]).
+/// A module built by `build` with every parameter initialised from `seed`: the same seed gives
+/// the same weights.
+///
+/// burn's random initialisers draw from one generator per backend, seeded globally, and
+/// parameters are initialised lazily on first use. Seeding and forcing every parameter under
+/// one lock keeps two models built at the same time (tests, threads) from interleaving their
+/// draws.
+pub(crate) fn seeded_init<M: Module>(device: &Device, seed: u64, build: impl FnOnce() -> M) -> M {
+    static INIT: Mutex<()> = Mutex::new(());
+    let _guard = INIT.lock().unwrap_or_else(|e| e.into_inner());
+    device.seed(seed);
+    let module = build();
+    module.visit(&mut Materialize);
+    module
+}
+
+/// Forces lazily initialised parameters (see [`seeded_init`]).
 struct Materialize;
 
 impl ModuleVisitor for Materialize {

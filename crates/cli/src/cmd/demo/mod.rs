@@ -431,7 +431,18 @@ pub(crate) fn localize_test(
 ) -> Result<Vec<FrameResult>> {
     let loc = Localizer::load(model_dir)?;
     let index = ds.split_frames(SplitName::Test);
-    let views = index
+    let views = views_of(ds, &index, &loc)?;
+    let estimates = loc.predict_batch(&views, mc)?;
+    Ok(frame_results(ds, &index, estimates, loc.meta().coding.task))
+}
+
+/// The model's views of the dataset's frames `index` (decoded in parallel).
+pub(crate) fn views_of(
+    ds: &NativeDataset,
+    index: &[usize],
+    loc: &Localizer,
+) -> Result<Vec<imgproc::view::View>> {
+    index
         .par_iter()
         .map(|&i| {
             let path = ds.frame_path(ds.frame_number(i).unwrap_or(i as u64));
@@ -439,14 +450,22 @@ pub(crate) fn localize_test(
             loc.view(&img)
                 .with_context(|| format!("{}: cannot make the view", path.display()))
         })
-        .collect::<Result<Vec<_>>>()?;
-    let estimates = loc.predict_batch(&views, mc)?;
-    let pose3 = loc.meta().coding.task == Task::Pose3;
+        .collect()
+}
+
+/// Estimates of the dataset's frames `index` with their errors, measured for `task`.
+pub(crate) fn frame_results(
+    ds: &NativeDataset,
+    index: &[usize],
+    estimates: Vec<Estimate>,
+    task: Task,
+) -> Vec<FrameResult> {
+    let pose3 = task == Task::Pose3;
     let mount = ds.info.mount;
-    Ok(index
-        .into_iter()
+    index
+        .iter()
         .zip(estimates)
-        .map(|(i, estimate)| {
+        .map(|(&i, estimate)| {
             let truth = ds.trajectory.frames[i].pose;
             let (pos_err_m, rot_err_deg) = pose_errors(&truth, &estimate.pose, pose3, mount);
             FrameResult {
@@ -457,7 +476,7 @@ pub(crate) fn localize_test(
                 rot_err_deg,
             }
         })
-        .collect())
+        .collect()
 }
 
 /// Position (m) and rotation (°) error of `estimate` against `truth`; for a 3-DoF model

@@ -12,11 +12,11 @@
 //!    cut frame and the `--cut-window` frames after it, as `eval --cuts` splits them) and the
 //!    others.
 
-use crate::cmd::demo::{self, DemoArgs, FrameResult, scene};
+use crate::cmd::demo::{self, FrameResult, scene};
 use crate::output::{print_json, print_text};
 use crate::progress::bar;
 use anyhow::Result;
-use clap::{Args, Parser};
+use clap::Args;
 use data::native::NativeDataset;
 use geom::Pose;
 use learn::Task;
@@ -76,21 +76,6 @@ struct StudyOutput {
     detection: scenecut::Score,
     frames_after_cut: usize,
     report: PathBuf,
-}
-
-/// The demo arguments the study trains with: the demo's own defaults, quick or not.
-fn demo_args(args: &CutsArgs) -> Result<DemoArgs> {
-    #[derive(Parser)]
-    struct Wrap {
-        #[command(flatten)]
-        demo: DemoArgs,
-    }
-    let out = args.out.to_string_lossy().into_owned();
-    let mut argv = vec!["demo", "--out", out.as_str()];
-    if args.quick {
-        argv.push("--quick");
-    }
-    Ok(Wrap::try_parse_from(argv)?.demo)
 }
 
 /// Everything the cut experiment measured.
@@ -196,7 +181,7 @@ pub fn run(args: &CutsArgs) -> Result<()> {
             eprintln!("{text}");
         }
     };
-    let demo_args = demo_args(args)?;
+    let demo_args = super::demo_args(&args.out, args.quick)?;
     let prepared = demo::render_and_train(&demo_args, &say)?;
     let segments = args.segments.unwrap_or(if args.quick { 8 } else { 16 });
     anyhow::ensure!(segments >= 2, "--segments must be at least 2 (one cut)");

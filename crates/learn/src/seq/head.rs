@@ -23,14 +23,15 @@ pub struct SeqHeadConfig {
 }
 
 impl SeqHeadConfig {
-    /// A head with freshly initialised weights on `device`.
-    pub fn init(&self, device: &Device) -> SeqHead {
-        SeqHead {
+    /// A head with freshly initialised weights on `device`; the same `seed` gives the same
+    /// weights.
+    pub fn init(&self, device: &Device, seed: u64) -> SeqHead {
+        crate::net::seeded_init(device, seed, || SeqHead {
             lstm: LstmConfig::new(self.features, self.hidden, true)
                 .with_batch_first(true)
                 .init(device),
             out: LinearConfig::new(self.hidden, self.outputs).init(device),
-        }
+        })
     }
 }
 
@@ -114,13 +115,12 @@ mod tests {
     #[test]
     fn stepping_equals_the_window_and_reset_starts_over() -> Result<()> {
         let device = Device::flex();
-        device.seed(5);
         let cfg = SeqHeadConfig {
             features: 16,
             hidden: 8,
             outputs: 7,
         };
-        let head = cfg.init(&device);
+        let head = cfg.init(&device, 5);
         let (k, f) = (6, cfg.features);
         let x = features(k, f, &device);
         let (window, _) = head.forward(x.clone(), None);

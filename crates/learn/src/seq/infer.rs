@@ -1,0 +1,247 @@
+//! Sequence-model inference: whole recordings at once, or live frame by frame.
+//!
+//! Monte-Carlo dropout works as for the single-frame model: `N` passes are `N` streams side
+//! by side (the LSTM's batch), each frame's features masked by its own Bernoulli mask per pass,
+//! each stream carrying its own state. The estimate of a frame is the mean and spread of the
+//! `N` outputs ([`crate::infer::estimates`]).
+
+use std::ops::Range;
+use std::path::Path;
+
+use burn::tensor::{Device, Tensor, TensorData};
+use imgproc::view::View;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use super::head::{SeqHead, SeqStream};
+use super::meta::{self, SEQ_BPK, SEQ_TOML, SeqMeta};
+use crate::checkpoint;
+use crate::infer::{self, Estimate, Localizer};
+use crate::net::mc;
+use crate::{LearnError, Result};
+
+/// A loaded sequence model: the single-frame model of the folder and the LSTM on its features.
+#[derive(Debug)]
+pub struct SeqLocalizer {
+    base: Localizer,
+    head: SeqHead,
+    meta: SeqMeta,
+}
+
+impl SeqLocalizer {
+    /// Loads the checkpoint folder `dir` (`model.toml`, `model.bpk`, `seq.toml`, `seq.bpk`) on
+    /// the CPU. A sequence part trained on other single-frame weights is refused by name.
+    pub fn load(dir: &Path) -> Result<SeqLocalizer> {
+        let base = Localizer::load(dir)?;
+        let meta = SeqMeta::read(dir)?;
+        let mismatch = |msg: String| LearnError::Mismatch {
+            path: dir.join(SEQ_TOML),
+            msg,
+        };
+        if meta.base_weights_hash != base.meta().weights_hash {
+            return Err(mismatch(format!(
+                "trained on single-frame weights {}, but model.bpk is {} (retrained since?); \
+                 train the sequence part again with `train --window`",
+                meta.base_weights_hash,
+                base.meta().weights_hash
+            )));
+        }
+        let net = &base.meta().net;
+        let features = net.arch.features() * if net.split { 2 } else { 1 };
+        let outputs = net.head.outputs(net.outputs);
+        if (meta.head.features, meta.head.outputs) != (features, outputs) {
+            return Err(mismatch(format!(
+                "head takes {} features to {} outputs; the network gives {features} and needs {outputs}",
+                meta.head.features, meta.head.outputs
+            )));
+        }
+        let bytes = checkpoint::read_checked(dir, SEQ_BPK, &meta.weights_hash)?;
+        let head = meta::load_head(&meta.head, bytes, base.device(), &dir.join(SEQ_BPK))?;
+        Ok(SeqLocalizer { base, head, meta })
+    }
+
+    /// The single-frame model whose features the LSTM reads (its view, its own estimates).
+    pub fn base(&self) -> &Localizer {
+        &self.base
+    }
+
+    /// The sequence part's description.
+    pub fn meta(&self) -> &SeqMeta {
+        &self.meta
+    }
+
+    /// Dropout probability of `mc_passes` passes: the model's for more than one, else none.
+    fn dropout(&self, mc_passes: usize) -> f64 {
+        if mc_passes > 1 {
+            self.meta.dropout
+        } else {
+            0.0
+        }
+    }
+
+    /// Poses of the views of one unbroken recording (no cut, no gap), in order, the state
+    /// carried from frame to frame from a fresh start: the same as [`SeqTracker::step`] on each
+    /// view after a reset, but the CNN runs in batches. `mc_passes` > 1 adds MC-dropout
+    /// uncertainty.
+    pub fn predict_run(&self, views: &[View], mc_passes: usize) -> Result<Vec<Estimate>> {
+        if views.is_empty() {
+            return Ok(Vec::new());
+        }
+        let inputs = self.base.pack(views)?;
+        let (features, width) = infer::feature_rows(
+            self.base.net(),
+            &inputs,
+            self.base.meta().input,
+            self.device(),
+        )?;
+        let mut rng = ChaCha8Rng::seed_from_u64(self.base.seed());
+        let rows = run_outputs(
+            &self.head,
+            &features,
+            width,
+            mc_passes.max(1),
+            self.dropout(mc_passes),
+            &mut rng,
+            self.device(),
+        )?;
+        Ok(infer::estimates(
+            &self.base.meta().coding,
+            &rows,
+            mc_passes.max(1),
+        ))
+    }
+
+    /// Poses of `views` made of several recordings: each range of `runs` (in order, covering
+    /// the views) starts from a fresh state ([`crate::window::runs`] finds them).
+    pub fn predict_runs(
+        &self,
+        views: &[View],
+        runs: &[Range<usize>],
+        mc_passes: usize,
+    ) -> Result<Vec<Estimate>> {
+        let mut out = Vec::with_capacity(views.len());
+        for run in runs {
+            let part = views.get(run.clone()).ok_or_else(|| {
+                LearnError::Input(format!("run {run:?} outside the {} views", views.len()))
+            })?;
+            out.extend(self.predict_run(part, mc_passes)?);
+        }
+        Ok(out)
+    }
+
+    /// A live stream: one frame at a time, the LSTM state carried over until
+    /// [`SeqTracker::reset`].
+    pub fn tracker(&self, mc_passes: usize) -> SeqTracker<'_> {
+        SeqTracker {
+            loc: self,
+            stream: SeqStream::new(&self.head),
+            passes: mc_passes.max(1),
+            p: self.dropout(mc_passes),
+            rng: ChaCha8Rng::seed_from_u64(self.base.seed()),
+        }
+    }
+
+    fn device(&self) -> &Device {
+        self.base.device()
+    }
+}
+
+/// A live stream through a [`SeqLocalizer`] (see [`SeqLocalizer::tracker`]).
+#[derive(Debug)]
+pub struct SeqTracker<'a> {
+    loc: &'a SeqLocalizer,
+    stream: SeqStream<'a>,
+    passes: usize,
+    p: f64,
+    rng: ChaCha8Rng,
+}
+
+impl SeqTracker<'_> {
+    /// The pose of the next frame of the stream.
+    pub fn step(&mut self, view: &View) -> Result<Estimate> {
+        let base = &self.loc.base;
+        let inputs = base.pack(std::slice::from_ref(view))?;
+        let [c, h, w] = base.meta().input;
+        let device = self.loc.device();
+        let x = Tensor::<4>::from_data(TensorData::new(inputs, [1, c, h, w]), device);
+        let features = base.net().features(x);
+        let [_, f] = features.dims();
+        let features = if self.passes > 1 {
+            features.repeat_dim(0, self.passes)
+        } else {
+            features
+        };
+        let features = if self.p > 0.0 {
+            let mask = mc::dropout_mask(self.passes, f, self.p, &mut self.rng);
+            features * Tensor::<2>::from_data(TensorData::new(mask, [self.passes, f]), device)
+        } else {
+            features
+        };
+        let out = self.stream.step(features);
+        let rows = rows_of(out)?;
+        infer::estimates(&base.meta().coding, &rows, self.passes)
+            .pop()
+            .ok_or_else(|| LearnError::Input("no estimate for the frame".into()))
+    }
+
+    /// Forgets the history (a scene cut, a new recording): the next frame starts afresh, with
+    /// the masks of a fresh tracker.
+    pub fn reset(&mut self) {
+        self.stream.reset();
+        self.rng = ChaCha8Rng::seed_from_u64(self.loc.base.seed());
+    }
+
+    /// Whether the stream carries history.
+    pub fn has_history(&self) -> bool {
+        self.stream.has_history()
+    }
+}
+
+/// The rows of a `[R, O]` output.
+fn rows_of(out: Tensor<2>) -> Result<Vec<Vec<f32>>> {
+    let [_, o] = out.dims();
+    let values = out
+        .into_data()
+        .try_to_vec::<f32>()
+        .map_err(|e| LearnError::Input(format!("cannot read the outputs: {e:?}")))?;
+    Ok(values.chunks_exact(o).map(<[f32]>::to_vec).collect())
+}
+
+/// Outputs of the head over one run of `T` frames' features (`T · width` values): `passes`
+/// streams, each frame's features masked with probability `p` per pass; rows frame-major
+/// (`T · passes` rows, frame `t`'s passes together), as [`infer::estimates`] takes them.
+pub(super) fn run_outputs(
+    head: &SeqHead,
+    features: &[f32],
+    width: usize,
+    passes: usize,
+    p: f64,
+    rng: &mut ChaCha8Rng,
+    device: &Device,
+) -> Result<Vec<Vec<f32>>> {
+    let t = features.len() / width.max(1);
+    if t == 0 {
+        return Ok(Vec::new());
+    }
+    let mut x = Vec::with_capacity(passes * features.len());
+    for _ in 0..passes {
+        x.extend_from_slice(features);
+    }
+    if p > 0.0 {
+        // frame-major draws, as a tracker draws them frame after frame
+        let mask = mc::dropout_mask(t * passes, width, p, rng);
+        for frame in 0..t {
+            for pass in 0..passes {
+                let m = &mask[(frame * passes + pass) * width..][..width];
+                let row = &mut x[(pass * t + frame) * width..][..width];
+                row.iter_mut().zip(m).for_each(|(v, m)| *v *= m);
+            }
+        }
+    }
+    let x = Tensor::<3>::from_data(TensorData::new(x, [passes, t, width]), device);
+    let (out, _) = head.forward(x, None);
+    let [_, _, o] = out.dims();
+    // [passes, T, O] -> [T, passes, O]
+    let out = out.swap_dims(0, 1).reshape([t * passes, o]);
+    rows_of(out)
+}

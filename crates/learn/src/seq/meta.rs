@@ -1,0 +1,152 @@
+//! `seq.toml`: what a sequence model is and what it was trained on (see the [module
+//! docs](super) for the file layout).
+
+use std::path::Path;
+
+use burn::module::Module;
+use burn::store::ModuleRecord;
+use burn::tensor::{Bytes, Device};
+use serde::{Deserialize, Serialize};
+
+use super::head::{SeqHead, SeqHeadConfig};
+use super::train::SeqConfig;
+use crate::checkpoint::StateFiles;
+use crate::{LearnError, Result};
+
+/// File name of the sequence model's description.
+pub const SEQ_TOML: &str = "seq.toml";
+/// File name of the sequence model's best weights.
+pub const SEQ_BPK: &str = "seq.bpk";
+/// Folder of the sequence model's resume state.
+pub const SEQ_STATE_DIR: &str = "seq-state";
+/// Layout version of `seq.toml`.
+pub const SEQ_FORMAT: u32 = 1;
+
+/// Metrics of one finished epoch of the sequence model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SeqEpoch {
+    /// Epoch number, from 1.
+    pub epoch: usize,
+    /// Mean training loss.
+    pub train_loss: f64,
+    /// Median validation position error, metres (validation recordings run whole, the state
+    /// carried from frame to frame, as live).
+    pub val_median_pos_m: f64,
+    /// Median validation rotation error, degrees.
+    pub val_median_rot_deg: f64,
+    /// Mean |Δ position error| between consecutive validation frames, metres.
+    pub val_jitter_m: f64,
+    /// Wall time of the epoch, seconds.
+    pub seconds: f64,
+}
+
+/// The content of `seq.toml`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SeqMeta {
+    /// Layout version ([`SEQ_FORMAT`]).
+    pub format: u32,
+    /// Content hash of the `model.bpk` whose features the head was trained on.
+    pub base_weights_hash: String,
+    /// The head to rebuild before loading the weights.
+    pub head: SeqHeadConfig,
+    /// Dropout on each frame's features (training and MC inference).
+    pub dropout: f64,
+    /// The training configuration (resuming checks the new one against it).
+    pub config: SeqConfig,
+    /// Epochs finished.
+    pub epoch: usize,
+    /// Epoch whose weights are in `seq.bpk`.
+    pub best_epoch: usize,
+    /// Median validation position error of `seq.bpk`, metres.
+    pub val_median_pos_m: f64,
+    /// Median validation rotation error of `seq.bpk`, degrees.
+    pub val_median_rot_deg: f64,
+    /// Content hash of `seq.bpk`.
+    pub weights_hash: String,
+    /// Resume state.
+    pub state: StateFiles,
+    /// Metrics of every finished epoch.
+    pub history: Vec<SeqEpoch>,
+}
+
+impl SeqMeta {
+    /// Whether `dir` holds a sequence model.
+    pub fn exists(dir: &Path) -> bool {
+        dir.join(SEQ_TOML).is_file()
+    }
+
+    /// Reads and checks `dir/seq.toml`.
+    pub fn read(dir: &Path) -> Result<SeqMeta> {
+        let path = dir.join(SEQ_TOML);
+        if !path.is_file() {
+            return Err(LearnError::corrupt(
+                &path,
+                "missing: the model has no sequence part (train one with `train --window K`)",
+            ));
+        }
+        let text = data::io::read_text(&path)?;
+        let meta: SeqMeta =
+            toml::from_str(&text).map_err(|e| LearnError::corrupt(&path, e.to_string()))?;
+        if meta.format != SEQ_FORMAT {
+            return Err(LearnError::corrupt(
+                &path,
+                format!(
+                    "layout version {} (this build reads {SEQ_FORMAT})",
+                    meta.format
+                ),
+            ));
+        }
+        if meta.head.features == 0 || meta.head.hidden == 0 || meta.head.outputs == 0 {
+            return Err(LearnError::corrupt(&path, "head with a zero width"));
+        }
+        if !(0.0..1.0).contains(&meta.dropout) {
+            return Err(LearnError::corrupt(
+                &path,
+                format!("dropout {} outside [0, 1)", meta.dropout),
+            ));
+        }
+        Ok(meta)
+    }
+
+    /// Writes `dir/seq.toml` atomically.
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        let path = dir.join(SEQ_TOML);
+        let text = toml::to_string(self).map_err(|e| LearnError::corrupt(&path, e.to_string()))?;
+        data::io::write_text_atomic(&path, &text)?;
+        Ok(())
+    }
+}
+
+/// The burnpack bytes of a head's weights.
+pub(super) fn head_bytes(head: SeqHead, path: &Path) -> Result<Vec<u8>> {
+    let bytes = head
+        .into_record()
+        .into_bytes()
+        .map_err(|e| LearnError::corrupt(path, format!("cannot serialise weights: {e}")))?;
+    Ok(bytes.to_vec())
+}
+
+/// A head built from `config` on `device` with the weights in `bytes` (read from `path`).
+pub(super) fn load_head(
+    config: &SeqHeadConfig,
+    bytes: Vec<u8>,
+    device: &Device,
+    path: &Path,
+) -> Result<SeqHead> {
+    let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(bytes))
+        .map_err(|e| LearnError::corrupt(path, e.to_string()))?;
+    config
+        .init(device, 0)
+        .try_load_record(record)
+        .map_err(|e| LearnError::corrupt(path, e.to_string()))
+}
+
+/// Name of the state weights of epoch `epoch`.
+pub(super) fn state_weights_name(epoch: usize) -> String {
+    format!("{SEQ_STATE_DIR}/weights-{epoch:04}.bpk")
+}
+
+/// Name of the optimizer state of epoch `epoch`.
+pub(super) fn state_optimizer_name(epoch: usize) -> String {
+    format!("{SEQ_STATE_DIR}/optimizer-{epoch:04}.bpk")
+}

@@ -1,0 +1,617 @@
+//! Training the LSTM of a sequence model on the frozen features of the folder's single-frame
+//! network (see the [module docs](super) for why two stages).
+//!
+//! Each step takes `batch_size` windows of `window` consecutive frames of one recording,
+//! every frame's features drawn from the clean view or one of `jittered_copies` jittered ones
+//! and masked by dropout, and minimises the pose loss summed over every frame of the window.
+//! After each epoch the validation recordings run whole with the state carried over, as a live
+//! stream would; the best epoch by median position error is kept.
+//!
+//! Determinism and resuming follow [`crate::train`]: the window order, copy choice and masks of
+//! epoch `e` come from a ChaCha generator seeded with `seed` on stream `e`, the jittered copies
+//! from `seed` alone, so a resumed run continues exactly as an unbroken one.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use burn::module::Module;
+use burn::optim::{AdamWConfig, GradientsParams, ModuleOptimizer};
+use burn::tensor::{Bytes, Device, Tensor, TensorData};
+use geom::Pose;
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use super::head::{SeqHead, SeqHeadConfig};
+use super::infer::run_outputs;
+use super::meta::{self, SEQ_BPK, SEQ_FORMAT, SEQ_TOML, SeqEpoch, SeqMeta};
+use crate::checkpoint::{self, MODEL_TOML, StateFiles};
+use crate::dataset::{self, Samples};
+use crate::head::PoseCoding;
+use crate::infer::{self, Localizer};
+use crate::loader;
+use crate::loss::pose_loss;
+use crate::net::mc;
+use crate::train::Schedule;
+use crate::window;
+use crate::{LearnError, Result};
+
+/// Everything [`train_sequence`] needs; [`SeqConfig::new`] gives the defaults.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SeqConfig {
+    /// Native dataset folder: the one the single-frame model was trained on.
+    pub data: PathBuf,
+    /// Checkpoint folder of the single-frame model; the sequence part is written beside it.
+    pub model: PathBuf,
+    /// Frames per training window (K).
+    pub window: usize,
+    /// Frames between the starts of consecutive training windows.
+    pub stride: usize,
+    /// LSTM units.
+    pub hidden: usize,
+    /// Epochs to reach (a resumed run continues up to this number).
+    pub epochs: usize,
+    /// Windows per step.
+    pub batch_size: usize,
+    /// Base learning rate.
+    pub lr: f64,
+    /// Learning-rate schedule over the whole run.
+    pub schedule: Schedule,
+    /// AdamW weight decay.
+    pub weight_decay: f64,
+    /// β of the pose loss; `None`: the single-frame model's.
+    pub beta: Option<f64>,
+    /// Dropout on each frame's features; `None`: the single-frame model's.
+    pub dropout: Option<f64>,
+    /// Jittered copies of each training view whose features windows draw from, besides the
+    /// clean view ([`crate::loader::jitter_view`]).
+    pub jittered_copies: usize,
+    /// Stop after this many epochs without a better validation median position error.
+    pub patience: Option<usize>,
+    /// Seed of initialisation, window order, jitter and dropout.
+    pub seed: u64,
+    /// Continue from the sequence checkpoint in `model` when there is one.
+    pub resume: bool,
+}
+
+impl SeqConfig {
+    /// Defaults: windows of 10 frames every frame, 256 LSTM units, 10 epochs of 32 windows a
+    /// step, AdamW at 1e-3 (cosine decay to 1 %) with weight decay 1e-4, β and dropout of the single-frame model, two
+    /// jittered copies, patience 4, seed 0.
+    pub fn new(data: impl Into<PathBuf>, model: impl Into<PathBuf>) -> SeqConfig {
+        SeqConfig {
+            data: data.into(),
+            model: model.into(),
+            window: 10,
+            stride: 1,
+            hidden: 256,
+            epochs: 10,
+            batch_size: 32,
+            lr: 1e-3,
+            schedule: Schedule::Cosine {
+                final_fraction: 0.01,
+            },
+            weight_decay: 1e-4,
+            beta: None,
+            dropout: None,
+            jittered_copies: 2,
+            patience: Some(4),
+            seed: 0,
+            resume: false,
+        }
+    }
+
+    fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(LearnError::Config(m));
+        if self.window < 2 {
+            return bad(format!(
+                "window {} too short: a sequence model needs at least 2 frames",
+                self.window
+            ));
+        }
+        if self.stride == 0 || self.hidden == 0 || self.epochs == 0 || self.batch_size == 0 {
+            return bad("stride, LSTM units, epochs and batch size must be at least 1".into());
+        }
+        if !(self.lr.is_finite() && self.lr > 0.0) {
+            return bad(format!("learning rate {} must be positive", self.lr));
+        }
+        if !(self.weight_decay.is_finite() && self.weight_decay >= 0.0) {
+            return bad(format!("weight decay {} must be >= 0", self.weight_decay));
+        }
+        if self.beta.is_some_and(|b| !(b.is_finite() && b >= 0.0)) {
+            return bad("beta must be >= 0".into());
+        }
+        if self.dropout.is_some_and(|p| !(0.0..1.0).contains(&p)) {
+            return bad("dropout must be in [0, 1)".into());
+        }
+        self.schedule.validate()
+    }
+
+    /// The fields a resumed run must share with the checkpoint.
+    fn resume_key(&self) -> SeqConfig {
+        SeqConfig {
+            data: PathBuf::new(),
+            model: PathBuf::new(),
+            epochs: 0,
+            patience: None,
+            resume: false,
+            ..self.clone()
+        }
+    }
+}
+
+/// Progress of [`train_sequence`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum SeqEvent {
+    /// The frozen features are computed.
+    Features {
+        /// Training frames.
+        train: usize,
+        /// Validation frames.
+        val: usize,
+        /// Training windows.
+        windows: usize,
+        /// Feature copies per training frame (clean + jittered).
+        copies: usize,
+        /// Seconds spent reading, viewing and running the CNN.
+        seconds: f64,
+    },
+    /// Training continues from a checkpoint.
+    Resumed {
+        /// Epochs already finished.
+        epoch: usize,
+    },
+    /// One optimisation step finished.
+    Step {
+        /// Epoch (from 1).
+        epoch: usize,
+        /// Step within the epoch (from 1).
+        step: usize,
+        /// Steps in the epoch.
+        steps: usize,
+        /// Loss of the batch.
+        loss: f64,
+    },
+    /// An epoch finished and was checkpointed.
+    Epoch(SeqEpoch),
+    /// Validation did not improve for `patience` epochs.
+    EarlyStop {
+        /// Last epoch run.
+        epoch: usize,
+        /// Epoch of the kept weights.
+        best_epoch: usize,
+    },
+}
+
+/// The outcome of [`train_sequence`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct SeqSummary {
+    /// Checkpoint folder.
+    pub dir: PathBuf,
+    /// Epochs finished.
+    pub epochs: usize,
+    /// Epoch of the weights in `seq.bpk`.
+    pub best_epoch: usize,
+    /// Median validation position error of `seq.bpk`, metres.
+    pub val_median_pos_m: f64,
+    /// Median validation rotation error of `seq.bpk`, degrees.
+    pub val_median_rot_deg: f64,
+    /// Training windows per epoch.
+    pub windows: usize,
+    /// Per-epoch metrics.
+    pub history: Vec<SeqEpoch>,
+}
+
+impl SeqSummary {
+    fn of(meta: &SeqMeta, dir: &Path, windows: usize) -> SeqSummary {
+        SeqSummary {
+            dir: dir.to_path_buf(),
+            epochs: meta.epoch,
+            best_epoch: meta.best_epoch,
+            val_median_pos_m: meta.val_median_pos_m,
+            val_median_rot_deg: meta.val_median_rot_deg,
+            windows,
+            history: meta.history.clone(),
+        }
+    }
+}
+
+/// `(sequence, frame number)` of each sample, from its `seq/frame` name.
+fn frame_keys(samples: &Samples, data: &Path) -> Result<Vec<(String, u64)>> {
+    samples
+        .names
+        .iter()
+        .map(|name| {
+            name.rsplit_once('/')
+                .and_then(|(seq, frame)| Some((seq.to_string(), frame.parse().ok()?)))
+                .ok_or_else(|| {
+                    LearnError::Input(format!(
+                        "{}: frame '{name}' has no frame number; a sequence model needs \
+                         recordings of numbered frames",
+                        data.display()
+                    ))
+                })
+        })
+        .collect()
+}
+
+/// Stream offset of the jittered copies' generators (epochs use streams `1..=epochs`).
+const JITTER_STREAM: u64 = 1 << 40;
+
+/// The frozen features of the training views: the clean ones, then `copies` jittered versions.
+fn training_features(
+    base: &Localizer,
+    samples: &Samples,
+    copies: usize,
+    seed: u64,
+) -> Result<(Vec<Vec<f32>>, usize)> {
+    let input = [samples.channels, samples.height, samples.width];
+    let (clean, width) = infer::feature_rows(base.net(), &samples.inputs, input, base.device())?;
+    let mut out = vec![clean];
+    for copy in 0..copies {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        rng.set_stream(JITTER_STREAM + copy as u64);
+        let mut inputs = samples.inputs.clone();
+        for view in inputs.chunks_exact_mut(samples.view_len()) {
+            loader::jitter_view(
+                view,
+                samples.channels,
+                samples.height,
+                samples.width,
+                &mut rng,
+            );
+        }
+        out.push(infer::feature_rows(base.net(), &inputs, input, base.device())?.0);
+    }
+    Ok((out, width))
+}
+
+/// Validation of a head: the recordings run whole from a fresh state, no dropout.
+struct Validation<'a> {
+    features: Vec<f32>,
+    width: usize,
+    runs: Vec<std::ops::Range<usize>>,
+    poses: &'a [Pose],
+    coding: &'a PoseCoding,
+}
+
+impl Validation<'_> {
+    /// `(median position m, median rotation °, jitter m)`.
+    fn measure(&self, head: &SeqHead, device: &Device) -> Result<(f64, f64, f64)> {
+        let (mut pos, mut rot) = (Vec::new(), Vec::new());
+        let (mut steps, mut pairs) = (0.0, 0usize);
+        let mut rng = ChaCha8Rng::seed_from_u64(0);
+        for run in &self.runs {
+            let f = &self.features[run.start * self.width..run.end * self.width];
+            let rows = run_outputs(head, f, self.width, 1, 0.0, &mut rng, device)?;
+            let est = infer::estimates(self.coding, &rows, 1);
+            let errors: Vec<f64> = est
+                .iter()
+                .zip(&self.poses[run.clone()])
+                .map(|(e, gt)| geom::metrics::position_error(gt, &e.pose))
+                .collect();
+            steps += geom::metrics::jitter(&errors) * errors.len().saturating_sub(1) as f64;
+            pairs += errors.len().saturating_sub(1);
+            rot.extend(
+                est.iter()
+                    .zip(&self.poses[run.clone()])
+                    .map(|(e, gt)| geom::metrics::rotation_error_deg(gt, &e.pose)),
+            );
+            pos.extend(errors);
+        }
+        let stats = |v: &[f64]| {
+            geom::metrics::Stats::of(v).map_err(|e| {
+                LearnError::Diverged(format!("validation errors are not finite ({e})"))
+            })
+        };
+        Ok((
+            stats(&pos)?.median,
+            stats(&rot)?.median,
+            steps / pairs.max(1) as f64,
+        ))
+    }
+}
+
+/// What a fresh run or a checkpoint starts from.
+struct Start {
+    meta: SeqMeta,
+    head: SeqHead,
+    optim: ModuleOptimizer,
+    stale: usize,
+}
+
+fn optimizer(cfg: &SeqConfig) -> ModuleOptimizer {
+    AdamWConfig::new()
+        .with_epsilon(1e-8)
+        .with_weight_decay(cfg.weight_decay as f32)
+        .init()
+}
+
+fn fresh(
+    cfg: &SeqConfig,
+    base: &Localizer,
+    head_cfg: SeqHeadConfig,
+    dropout: f64,
+    device: &Device,
+) -> Start {
+    let meta = SeqMeta {
+        format: SEQ_FORMAT,
+        base_weights_hash: base.meta().weights_hash.clone(),
+        head: head_cfg,
+        dropout,
+        config: cfg.clone(),
+        epoch: 0,
+        best_epoch: 0,
+        val_median_pos_m: f64::INFINITY,
+        val_median_rot_deg: f64::INFINITY,
+        weights_hash: String::new(),
+        state: StateFiles {
+            weights: String::new(),
+            weights_hash: String::new(),
+            optimizer: String::new(),
+            optimizer_hash: String::new(),
+        },
+        history: Vec::new(),
+    };
+    Start {
+        meta,
+        head: head_cfg.init(device, cfg.seed),
+        optim: optimizer(cfg),
+        stale: 0,
+    }
+}
+
+fn resume(
+    cfg: &SeqConfig,
+    base: &Localizer,
+    head_cfg: SeqHeadConfig,
+    device: &Device,
+) -> Result<Start> {
+    let dir = &cfg.model;
+    let meta = SeqMeta::read(dir)?;
+    let mismatch = |msg: String| {
+        Err(LearnError::Mismatch {
+            path: dir.join(SEQ_TOML),
+            msg,
+        })
+    };
+    if meta.base_weights_hash != base.meta().weights_hash {
+        return mismatch(format!(
+            "trained on single-frame weights {}, but model.bpk is now {}",
+            meta.base_weights_hash,
+            base.meta().weights_hash
+        ));
+    }
+    if meta.config.resume_key() != cfg.resume_key() || meta.head != head_cfg {
+        return mismatch(format!(
+            "trained with different settings; checkpoint: {:?}; now: {:?}",
+            meta.config.resume_key(),
+            cfg.resume_key()
+        ));
+    }
+    let weights = checkpoint::read_checked(dir, &meta.state.weights, &meta.state.weights_hash)?;
+    let head = meta::load_head(&head_cfg, weights, device, &dir.join(&meta.state.weights))?;
+    let opt_path = dir.join(&meta.state.optimizer);
+    let opt_bytes =
+        checkpoint::read_checked(dir, &meta.state.optimizer, &meta.state.optimizer_hash)?;
+    let optim = optimizer(cfg)
+        .from_bytes(Bytes::from_bytes_vec(opt_bytes))
+        .map_err(|e| LearnError::corrupt(&opt_path, e.to_string()))?;
+    let stale = meta.epoch.saturating_sub(meta.best_epoch);
+    let mut meta = meta;
+    meta.config.epochs = cfg.epochs;
+    meta.config.patience = cfg.patience;
+    meta.config.data = cfg.data.clone();
+    meta.config.model = cfg.model.clone();
+    Ok(Start {
+        meta,
+        head,
+        optim,
+        stale,
+    })
+}
+
+/// Trains the sequence part of the model in `cfg.model` on `cfg.data` (the single-frame
+/// model's own dataset: its content hash must match) and checkpoints it beside the model after
+/// every epoch. With `cfg.resume` it continues from the last epoch there.
+pub fn train_sequence(cfg: &SeqConfig, progress: &mut dyn FnMut(&SeqEvent)) -> Result<SeqSummary> {
+    cfg.validate()?;
+    let t0 = Instant::now();
+    let base = Localizer::load(&cfg.model)?;
+    let base_meta = base.meta().clone();
+    let data = dataset::load(&cfg.data, base.view_spec(), base_meta.config.seed)?;
+    if data.hash != base_meta.dataset.hash {
+        return Err(LearnError::Mismatch {
+            path: cfg.model.join(MODEL_TOML),
+            msg: format!(
+                "the single-frame model was trained on dataset '{}' ({}), not on the content of {} ({}); \
+                 the sequence part trains on the same data",
+                base_meta.dataset.name,
+                base_meta.dataset.hash,
+                cfg.data.display(),
+                data.hash
+            ),
+        });
+    }
+    let cuts_path = cfg.data.join(data::native::CUTS_CSV);
+    let cuts = if cuts_path.is_file() {
+        data::cuts::read(&cuts_path)?
+    } else {
+        Vec::new()
+    };
+    let train_keys = frame_keys(&data.train, &cfg.data)?;
+    let val_keys = frame_keys(&data.val, &cfg.data)?;
+    let windows = window::window_starts(&train_keys, &cuts, cfg.window, cfg.stride);
+    if windows.is_empty() {
+        return Err(LearnError::Input(format!(
+            "{}: no run of {} consecutive training frames (without a gap or cut) to make a window of",
+            cfg.data.display(),
+            cfg.window
+        )));
+    }
+    let (copies, width) = training_features(&base, &data.train, cfg.jittered_copies, cfg.seed)?;
+    let input = [data.val.channels, data.val.height, data.val.width];
+    let (val_features, _) =
+        infer::feature_rows(base.net(), &data.val.inputs, input, base.device())?;
+    progress(&SeqEvent::Features {
+        train: data.train.len(),
+        val: data.val.len(),
+        windows: windows.len(),
+        copies: copies.len(),
+        seconds: t0.elapsed().as_secs_f64(),
+    });
+    let coding = base_meta.coding.clone();
+    let validation = Validation {
+        features: val_features,
+        width,
+        runs: window::runs(&val_keys, &cuts),
+        poses: &data.val.poses,
+        coding: &coding,
+    };
+    let head_cfg = SeqHeadConfig {
+        features: width,
+        hidden: cfg.hidden,
+        outputs: base_meta.net.head.outputs(base_meta.net.outputs),
+    };
+    let beta = cfg.beta.unwrap_or(base_meta.config.beta);
+    let dropout = cfg.dropout.unwrap_or(base_meta.dropout);
+    let device = Device::flex().autodiff();
+    let plain = Device::flex();
+    let resuming = cfg.resume && SeqMeta::exists(&cfg.model);
+    let Start {
+        mut meta,
+        mut head,
+        mut optim,
+        mut stale,
+    } = if resuming {
+        let start = resume(cfg, &base, head_cfg, &device)?;
+        progress(&SeqEvent::Resumed {
+            epoch: start.meta.epoch,
+        });
+        start
+    } else {
+        fresh(cfg, &base, head_cfg, dropout, &device)
+    };
+    let targets: Vec<Vec<f32>> = data.train.poses.iter().map(|p| coding.target(p)).collect();
+    let (k, t_width, o) = (cfg.window, targets[0].len(), head_cfg.outputs);
+    let batch = cfg.batch_size.min(windows.len());
+    let steps = windows.len() / batch;
+    let total_steps = steps * cfg.epochs;
+    while meta.epoch < cfg.epochs && !stop_early(cfg, stale, meta.epoch) {
+        let epoch = meta.epoch + 1;
+        let t_epoch = Instant::now();
+        let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+        rng.set_stream(epoch as u64);
+        let mut order = windows.clone();
+        order.shuffle(&mut rng);
+        let mut loss_sum = 0.0;
+        for step in 0..steps {
+            let mut x = Vec::with_capacity(batch * k * width);
+            let mut y = Vec::with_capacity(batch * k * t_width);
+            for &start in &order[step * batch..(step + 1) * batch] {
+                for i in start..start + k {
+                    let copy = &copies[rng.random_range(0..copies.len())];
+                    x.extend_from_slice(&copy[i * width..(i + 1) * width]);
+                    y.extend_from_slice(&targets[i]);
+                }
+            }
+            if dropout > 0.0 {
+                let mask = mc::dropout_mask(batch * k, width, dropout, &mut rng);
+                x.iter_mut().zip(&mask).for_each(|(v, m)| *v *= m);
+            }
+            let x = Tensor::<3>::from_data(TensorData::new(x, [batch, k, width]), &device);
+            let y = Tensor::<2>::from_data(TensorData::new(y, [batch * k, t_width]), &device);
+            let (out, _) = head.forward(x, None);
+            let parts = pose_loss(&coding, out.reshape([batch * k, o]), y, beta, None);
+            let grads = GradientsParams::from_grads(parts.total.backward(), &head);
+            let loss = parts.total.into_scalar::<f32>() as f64;
+            if !loss.is_finite() {
+                return Err(LearnError::Diverged(format!(
+                    "sequence loss {loss} at epoch {epoch}, step {}; try a lower learning rate",
+                    step + 1
+                )));
+            }
+            let lr = cfg
+                .schedule
+                .lr(cfg.lr, (epoch - 1) * steps + step, total_steps, steps);
+            head = optim.step(lr, head.clone(), grads);
+            loss_sum += loss;
+            progress(&SeqEvent::Step {
+                epoch,
+                step: step + 1,
+                steps,
+                loss,
+            });
+        }
+        let valid = head.valid();
+        let (med_pos, med_rot, jitter) = validation.measure(&valid, &plain)?;
+        let metrics = SeqEpoch {
+            epoch,
+            train_loss: loss_sum / steps.max(1) as f64,
+            val_median_pos_m: med_pos,
+            val_median_rot_deg: med_rot,
+            val_jitter_m: jitter,
+            seconds: t_epoch.elapsed().as_secs_f64(),
+        };
+        let improved = med_pos < meta.val_median_pos_m || meta.best_epoch == 0;
+        stale = if improved { 0 } else { stale + 1 };
+        meta.epoch = epoch;
+        meta.history.push(metrics.clone());
+        if improved {
+            meta.best_epoch = epoch;
+            meta.val_median_pos_m = med_pos;
+            meta.val_median_rot_deg = med_rot;
+        }
+        save_epoch(
+            &cfg.model,
+            &mut meta,
+            &head,
+            &optim,
+            improved.then_some(valid),
+        )?;
+        progress(&SeqEvent::Epoch(metrics));
+        if stop_early(cfg, stale, epoch) && epoch < cfg.epochs {
+            progress(&SeqEvent::EarlyStop {
+                epoch,
+                best_epoch: meta.best_epoch,
+            });
+        }
+    }
+    Ok(SeqSummary::of(&meta, &cfg.model, windows.len()))
+}
+
+/// Whether `stale` epochs without improvement end the run.
+fn stop_early(cfg: &SeqConfig, stale: usize, epoch: usize) -> bool {
+    epoch > 0 && cfg.patience.is_some_and(|p| stale >= p)
+}
+
+/// Writes the checkpoint of a finished epoch: state files, `seq.bpk` when `best` is given,
+/// then `seq.toml`, then removes the previous state files.
+fn save_epoch(
+    dir: &Path,
+    meta: &mut SeqMeta,
+    head: &SeqHead,
+    optim: &ModuleOptimizer,
+    best: Option<SeqHead>,
+) -> Result<()> {
+    let weights_name = meta::state_weights_name(meta.epoch);
+    let optimizer_name = meta::state_optimizer_name(meta.epoch);
+    let weights = meta::head_bytes(head.clone(), &dir.join(&weights_name))?;
+    let opt = optim
+        .into_bytes()
+        .map_err(|e| LearnError::corrupt(dir.join(&optimizer_name), e.to_string()))?;
+    meta.state = StateFiles {
+        weights_hash: checkpoint::write_file(dir, &weights_name, &weights)?,
+        weights: weights_name,
+        optimizer_hash: checkpoint::write_file(dir, &optimizer_name, &opt)?,
+        optimizer: optimizer_name,
+    };
+    if let Some(best) = best {
+        let bytes = meta::head_bytes(best, &dir.join(SEQ_BPK))?;
+        meta.weights_hash = checkpoint::write_file(dir, SEQ_BPK, &bytes)?;
+    }
+    meta.write(dir)?;
+    checkpoint::prune_state(dir, &meta.state);
+    Ok(())
+}

@@ -1,0 +1,205 @@
+//! The sequence model (CNN+LSTM on frozen features) end to end on the tiny procedural dataset:
+//! training, the stored validation figure, live stepping against whole runs, resuming, and
+//! refusing a sequence part whose CNN changed.
+
+mod common;
+
+use std::path::Path;
+
+use data::native::{NativeDataset, SplitName};
+use geom::metrics::{Stats, position_error};
+use learn::seq::{SeqConfig, SeqEvent, SeqLocalizer, SeqSummary, train_sequence};
+use learn::{Arch, LearnError, Schedule, TrainConfig, train};
+
+fn base_config(data: &Path, out: &Path, seed: u64) -> TrainConfig {
+    let mut cfg = TrainConfig::new(data, out);
+    cfg.arch = Arch::Small;
+    cfg.view = Some("resize=32x24".into());
+    cfg.epochs = 3;
+    cfg.batch_size = 8;
+    cfg.lr = 3e-3;
+    cfg.schedule = Schedule::Constant;
+    cfg.beta = 1.0;
+    cfg.hidden = 32;
+    cfg.seed = seed;
+    cfg
+}
+
+fn seq_config(data: &Path, model: &Path, epochs: usize) -> SeqConfig {
+    let mut cfg = SeqConfig::new(data, model);
+    cfg.window = 4;
+    cfg.hidden = 16;
+    cfg.epochs = epochs;
+    cfg.batch_size = 8;
+    cfg.lr = 1e-2;
+    // a rate that does not depend on the number of epochs, so that a run resumed to more
+    // epochs compares with an unbroken one
+    cfg.schedule = Schedule::Constant;
+    cfg.jittered_copies = 1;
+    cfg.patience = None;
+    cfg.seed = 3;
+    cfg
+}
+
+fn run_seq(cfg: &SeqConfig) -> (SeqSummary, Vec<SeqEvent>) {
+    let mut events = Vec::new();
+    let summary = train_sequence(cfg, &mut |e| events.push(e.clone())).unwrap();
+    (summary, events)
+}
+
+/// The validation frames' views, in order, with their poses.
+fn val_views(loc: &SeqLocalizer, data: &Path) -> (Vec<imgproc::view::View>, Vec<geom::Pose>) {
+    let ds = NativeDataset::open(data).unwrap();
+    ds.split_frames(SplitName::Val)
+        .into_iter()
+        .map(|i| {
+            let frame = &ds.trajectory.frames[i];
+            let img = image::open(ds.frame_path(frame.name.parse().unwrap())).unwrap();
+            (loc.base().view(&img).unwrap(), frame.pose)
+        })
+        .unzip()
+}
+
+fn close(a: &learn::Estimate, b: &learn::Estimate) -> bool {
+    position_error(&a.pose, &b.pose) < 1e-5
+        && (a.sigma_pos_m - b.sigma_pos_m).abs() < 1e-5
+        && (a.sigma_rot_deg - b.sigma_rot_deg).abs() < 1e-3
+}
+
+#[test]
+fn trains_on_windows_and_steps_live_as_it_runs_whole() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (data, model) = (tmp.path().join("data"), tmp.path().join("model"));
+    common::make_dataset(&data, 6, 24);
+    train(&base_config(&data, &model, 7), &mut |_| {}).unwrap();
+    let (summary, events) = run_seq(&seq_config(&data, &model, 4));
+    // two training sequences of 24 frames: 21 windows of 4 in each
+    assert!(matches!(
+        events[0],
+        SeqEvent::Features {
+            train: 48,
+            val: 24,
+            windows: 42,
+            copies: 2,
+            ..
+        }
+    ));
+    let losses: Vec<f64> = events
+        .iter()
+        .filter_map(|e| match e {
+            SeqEvent::Step { loss, .. } => Some(*loss),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(losses.len(), 4 * 5);
+    let head = losses[..3].iter().sum::<f64>() / 3.0;
+    let tail = losses[losses.len() - 3..].iter().sum::<f64>() / 3.0;
+    assert!(tail < 0.7 * head, "loss {head} -> {tail}");
+    assert_eq!(summary.history.len(), 4);
+    assert!(model.join("seq.toml").is_file() && model.join("seq.bpk").is_file());
+
+    let loc = SeqLocalizer::load(&model).unwrap();
+    let (views, poses) = val_views(&loc, &data);
+    // the stored validation error is what inference gives on the validation walk
+    let run = loc.predict_run(&views, 0).unwrap();
+    let errors: Vec<f64> = run
+        .iter()
+        .zip(&poses)
+        .map(|(e, gt)| position_error(gt, &e.pose))
+        .collect();
+    let median = Stats::of(&errors).unwrap().median;
+    assert!(
+        (median - summary.val_median_pos_m).abs() < 1e-4,
+        "{median} vs {}",
+        summary.val_median_pos_m
+    );
+    // live stepping gives the whole run's estimates, with and without MC dropout; a reset
+    // starts over as a fresh tracker
+    for mc in [0, 4] {
+        let whole = loc.predict_run(&views, mc).unwrap();
+        let mut tracker = loc.tracker(mc);
+        assert!(!tracker.has_history());
+        for (v, w) in views.iter().zip(&whole) {
+            let e = tracker.step(v).unwrap();
+            assert!(close(&e, w), "mc {mc}: {e:?} vs {w:?}");
+        }
+        assert!(tracker.has_history());
+        tracker.reset();
+        for (v, w) in views.iter().zip(&whole).take(3) {
+            assert!(close(&tracker.step(v).unwrap(), w));
+        }
+        if mc > 1 {
+            assert!(whole.iter().all(|e| e.passes == mc && e.sigma_pos_m > 0.0));
+        }
+    }
+    // the history matters: frame 5 after frames 0-4 differs from frame 5 alone
+    let alone = loc.predict_run(&views[5..6], 0).unwrap();
+    assert!(position_error(&alone[0].pose, &run[5].pose) > 1e-6);
+    // runs split the views and start each afresh
+    let split = loc.predict_runs(&views, &[0..10, 10..24], 0).unwrap();
+    let second = loc.predict_run(&views[10..], 0).unwrap();
+    assert!(close(&split[10], &second[0]) && close(&split[3], &run[3]));
+}
+
+#[test]
+fn resuming_continues_as_an_unbroken_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    common::make_dataset(&data, 3, 16);
+    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    // one CNN for both (training it twice may differ in the last bits: threads sum in any order)
+    train(&base_config(&data, &a, 5), &mut |_| {}).unwrap();
+    std::fs::create_dir_all(&b).unwrap();
+    for file in ["model.toml", "model.bpk"] {
+        std::fs::copy(a.join(file), b.join(file)).unwrap();
+    }
+    let (full, _) = run_seq(&seq_config(&data, &a, 3));
+    let (two, _) = run_seq(&seq_config(&data, &b, 2));
+    let mut resumed = seq_config(&data, &b, 3);
+    resumed.resume = true;
+    let (cont, events) = run_seq(&resumed);
+    assert!(matches!(events[1], SeqEvent::Resumed { epoch: 2 }));
+    assert_eq!(cont.history.len(), 3);
+    assert_eq!(cont.history[..2], two.history[..]);
+    for (x, y) in full.history.iter().zip(&cont.history) {
+        assert!((x.train_loss - y.train_loss).abs() < 1e-4, "{x:?} vs {y:?}");
+        assert!(
+            (x.val_median_pos_m - y.val_median_pos_m).abs() < 1e-4,
+            "{x:?} vs {y:?}"
+        );
+    }
+    // only the last epoch's state is kept
+    let state: Vec<_> = std::fs::read_dir(b.join("seq-state")).unwrap().collect();
+    assert_eq!(state.len(), 2);
+    // other settings are refused by name
+    let mut other = resumed.clone();
+    other.hidden = 8;
+    other.epochs = 4;
+    let err = train_sequence(&other, &mut |_| {}).unwrap_err();
+    assert!(
+        matches!(&err, LearnError::Mismatch { path, .. } if path.ends_with("seq.toml")),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_retrained_network_or_short_recordings_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (data, model) = (tmp.path().join("data"), tmp.path().join("model"));
+    common::make_dataset(&data, 6, 8);
+    train(&base_config(&data, &model, 1), &mut |_| {}).unwrap();
+    // windows longer than the recordings
+    let mut long = seq_config(&data, &model, 1);
+    long.window = 9;
+    let err = train_sequence(&long, &mut |_| {}).unwrap_err();
+    assert!(err.to_string().contains("consecutive"), "{err}");
+    run_seq(&seq_config(&data, &model, 1));
+    assert!(SeqLocalizer::load(&model).is_ok());
+    // the CNN trained again with another seed: its features are not the ones the LSTM knows
+    train(&base_config(&data, &model, 2), &mut |_| {}).unwrap();
+    let err = SeqLocalizer::load(&model).unwrap_err();
+    assert!(
+        matches!(&err, LearnError::Mismatch { path, .. } if path.ends_with("seq.toml")),
+        "{err}"
+    );
+}
