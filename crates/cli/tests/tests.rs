@@ -6,5 +6,6 @@ mod learn_cli;
 mod metrics_reference;
 mod preprocess_cli;
 mod scenecut_cli;
+mod study_cli;
 mod synth_cli;
 mod util;

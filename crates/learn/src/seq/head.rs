@@ -2,14 +2,18 @@
 //! the frames of a window, a linear layer per frame out.
 //!
 //! Training sees windows (`[B, K, F]` features, [`crate::window`] says which frames form one);
-//! a live stream steps one frame at a time with the state carried over ([`SeqStream`]), and a
-//! scene cut calls [`SeqStream::reset`]. Stepping K frames gives the same outputs as the window
-//! of those K frames (a test checks it), so what was trained is what runs live.
+//! a live stream steps one frame at a time with the state carried over ([`SeqStream`], the same
+//! weights outside burn), and a scene cut calls [`SeqStream::reset`]. Stepping K frames gives the
+//! same outputs as the window of those K frames (a test checks it), so what was trained is what
+//! runs live.
 
 use burn::module::Module;
 use burn::nn::{Linear, LinearConfig, Lstm, LstmConfig, LstmState};
 use burn::tensor::{Device, Tensor};
 use serde::{Deserialize, Serialize};
+
+use super::stream::{GateWeights, LinearWeights, SeqStream};
+use crate::{LearnError, Result};
 
 /// What a [`SeqHead`] is built from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -53,48 +57,52 @@ impl SeqHead {
         let (hidden, state) = self.lstm.forward(features, state);
         (self.out.forward(hidden), state)
     }
+
+    /// A live stream through this head ([`SeqStream`]), its weights copied out.
+    pub fn stream(&self) -> Result<SeqStream> {
+        let gates = [
+            Some(&self.lstm.input_gate),
+            self.lstm.forget_gate.as_ref(),
+            Some(&self.lstm.output_gate),
+            Some(&self.lstm.cell_gate),
+        ];
+        let mut parts = Vec::with_capacity(4);
+        for gate in gates {
+            let gate = gate.ok_or_else(|| {
+                LearnError::Config("the LSTM has no forget gate (coupled gates)".into())
+            })?;
+            parts.push(GateWeights {
+                input: linear_weights(&gate.input_transform)?,
+                hidden: linear_weights(&gate.hidden_transform)?,
+            });
+        }
+        SeqStream::new(&parts, linear_weights(&self.out)?)
+    }
 }
 
-/// A live stream through a [`SeqHead`]: one frame at a time, the LSTM state carried from frame
-/// to frame until [`reset`](SeqStream::reset).
-#[derive(Debug)]
-pub struct SeqStream<'a> {
-    head: &'a SeqHead,
-    state: Option<LstmState<2>>,
-}
-
-impl<'a> SeqStream<'a> {
-    /// A stream with no history.
-    pub fn new(head: &'a SeqHead) -> SeqStream<'a> {
-        SeqStream { head, state: None }
-    }
-
-    /// Outputs `[B, outputs]` for the next frame's features `[B, F]`.
-    pub fn step(&mut self, features: Tensor<2>) -> Tensor<2> {
-        let [b, f] = features.dims();
-        let (y, state) = self
-            .head
-            .forward(features.reshape([b, 1, f]), self.state.take());
-        self.state = Some(state);
-        let [_, _, o] = y.dims();
-        y.reshape([b, o])
-    }
-
-    /// Forgets the history: the next frame starts a new stretch of time (a scene cut).
-    pub fn reset(&mut self) {
-        self.state = None;
-    }
-
-    /// Whether the stream carries history.
-    pub fn has_history(&self) -> bool {
-        self.state.is_some()
-    }
+/// Weights `[in, out]` (row-major, as burn stores them) and bias of a linear layer.
+fn linear_weights(layer: &Linear) -> Result<LinearWeights> {
+    let [rows, cols] = layer.weight.dims();
+    let read = |t: Tensor<2>| {
+        t.into_data()
+            .try_to_vec::<f32>()
+            .map_err(|e| LearnError::Input(format!("cannot read the LSTM weights: {e:?}")))
+    };
+    let bias = match &layer.bias {
+        Some(b) => read(b.val().reshape([1, cols]))?,
+        None => vec![0.0; cols],
+    };
+    Ok(LinearWeights {
+        rows,
+        cols,
+        weight: read(layer.weight.val())?,
+        bias,
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{LearnError, Result};
     use burn::tensor::TensorData;
 
     fn values<const D: usize>(y: Tensor<D>) -> Result<Vec<f32>> {
@@ -103,15 +111,15 @@ mod tests {
             .map_err(|e| LearnError::Input(format!("{e:?}")))
     }
 
-    fn features(k: usize, f: usize, device: &Device) -> Tensor<3> {
-        let v: Vec<f32> = (0..k * f)
+    fn features(b: usize, k: usize, f: usize, device: &Device) -> Tensor<3> {
+        let v: Vec<f32> = (0..b * k * f)
             .map(|i| ((i * 37 % 101) as f32 / 50.0) - 1.0)
             .collect();
-        Tensor::<3>::from_data(TensorData::new(v, [1, k, f]), device)
+        Tensor::<3>::from_data(TensorData::new(v, [b, k, f]), device)
     }
 
-    /// Stepping frame by frame gives the window's outputs; after a reset the stream starts
-    /// over as a fresh one.
+    /// Stepping frame by frame (outside burn) gives the window's outputs, stream by stream;
+    /// after a reset the stream starts over as a fresh one.
     #[test]
     fn stepping_equals_the_window_and_reset_starts_over() -> Result<()> {
         let device = Device::flex();
@@ -121,38 +129,41 @@ mod tests {
             outputs: 7,
         };
         let head = cfg.init(&device, 5);
-        let (k, f) = (6, cfg.features);
-        let x = features(k, f, &device);
-        let (window, _) = head.forward(x.clone(), None);
-        let window = values(window)?;
-        assert_eq!(window.len(), k * cfg.outputs);
+        let (b, k, f, o) = (2, 6, cfg.features, cfg.outputs);
+        let x = features(b, k, f, &device);
+        let window = values(head.forward(x.clone(), None).0)?;
+        assert_eq!(window.len(), b * k * o);
+        let frame = |t: usize| -> Result<Vec<f32>> {
+            values(x.clone().slice([0..b, t..t + 1, 0..f]).reshape([b, f]))
+        };
 
-        let mut stream = SeqStream::new(&head);
+        let mut stream = head.stream()?;
         assert!(!stream.has_history());
         let mut stepped = Vec::new();
         for t in 0..k {
-            let frame = x.clone().slice([0..1, t..t + 1, 0..f]).reshape([1, f]);
-            stepped.extend(values(stream.step(frame))?);
+            stepped.push(stream.step(&frame(t)?, b)?);
         }
-        for (a, b) in window.iter().zip(&stepped) {
-            assert!((a - b).abs() < 1e-5, "{a} vs {b}");
+        for (t, out) in stepped.iter().enumerate() {
+            for row in 0..b {
+                let want = &window[(row * k + t) * o..][..o];
+                for (a, w) in out[row * o..(row + 1) * o].iter().zip(want) {
+                    assert!((a - w).abs() < 1e-5, "frame {t} row {row}: {a} vs {w}");
+                }
+            }
         }
         // the history matters: frame 2 alone differs from frame 2 after frames 0 and 1
-        let third = x.clone().slice([0..1, 2..3, 0..f]).reshape([1, f]);
-        let alone = values(SeqStream::new(&head).step(third.clone()))?;
+        let alone = head.stream()?.step(&frame(2)?, b)?;
         assert!(
             alone
                 .iter()
-                .zip(&stepped[2 * cfg.outputs..3 * cfg.outputs])
-                .any(|(a, b)| (a - b).abs() > 1e-4)
+                .zip(&stepped[2])
+                .any(|(a, s)| (a - s).abs() > 1e-4)
         );
         // after a reset, the stream answers as a fresh one
         stream.reset();
         assert!(!stream.has_history());
-        let again = values(stream.step(third))?;
-        for (a, b) in alone.iter().zip(&again) {
-            assert!((a - b).abs() < 1e-6);
-        }
+        assert_eq!(stream.step(&frame(2)?, b)?, alone);
+        assert!(stream.step(&frame(3)?, b + 1).is_err());
         Ok(())
     }
 }

@@ -13,8 +13,9 @@ use imgproc::view::View;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use super::head::{SeqHead, SeqStream};
+use super::head::SeqHead;
 use super::meta::{self, SEQ_BPK, SEQ_TOML, SeqMeta};
+use super::stream::SeqStream;
 use crate::checkpoint;
 use crate::infer::{self, Estimate, Localizer};
 use crate::net::mc;
@@ -25,6 +26,8 @@ use crate::{LearnError, Result};
 pub struct SeqLocalizer {
     base: Localizer,
     head: SeqHead,
+    /// The head's weights for live steps, copied once.
+    stream: SeqStream,
     meta: SeqMeta,
 }
 
@@ -57,7 +60,13 @@ impl SeqLocalizer {
         }
         let bytes = checkpoint::read_checked(dir, SEQ_BPK, &meta.weights_hash)?;
         let head = meta::load_head(&meta.head, bytes, base.device(), &dir.join(SEQ_BPK))?;
-        Ok(SeqLocalizer { base, head, meta })
+        let stream = head.stream()?;
+        Ok(SeqLocalizer {
+            base,
+            head,
+            stream,
+            meta,
+        })
     }
 
     /// The single-frame model whose features the LSTM reads (its view, its own estimates).
@@ -134,7 +143,7 @@ impl SeqLocalizer {
     pub fn tracker(&self, mc_passes: usize) -> SeqTracker<'_> {
         SeqTracker {
             loc: self,
-            stream: SeqStream::new(&self.head),
+            stream: self.stream.clone(),
             passes: mc_passes.max(1),
             p: self.dropout(mc_passes),
             rng: ChaCha8Rng::seed_from_u64(self.base.seed()),
@@ -150,7 +159,7 @@ impl SeqLocalizer {
 #[derive(Debug)]
 pub struct SeqTracker<'a> {
     loc: &'a SeqLocalizer,
-    stream: SeqStream<'a>,
+    stream: SeqStream,
     passes: usize,
     p: f64,
     rng: ChaCha8Rng,
@@ -161,25 +170,23 @@ impl SeqTracker<'_> {
     pub fn step(&mut self, view: &View) -> Result<Estimate> {
         let base = &self.loc.base;
         let inputs = base.pack(std::slice::from_ref(view))?;
-        let [c, h, w] = base.meta().input;
         let device = self.loc.device();
-        let x = Tensor::<4>::from_data(TensorData::new(inputs, [1, c, h, w]), device);
-        let features = base.net().features(x);
-        let [_, f] = features.dims();
-        let features = if self.passes > 1 {
-            features.repeat_dim(0, self.passes)
-        } else {
-            features
-        };
-        let features = if self.p > 0.0 {
-            let mask = mc::dropout_mask(self.passes, f, self.p, &mut self.rng);
-            features * Tensor::<2>::from_data(TensorData::new(mask, [self.passes, f]), device)
-        } else {
-            features
-        };
-        let out = self.stream.step(features);
-        let rows = rows_of(out)?;
-        infer::estimates(&base.meta().coding, &rows, self.passes)
+        let (features, f) = infer::feature_rows(base.net(), &inputs, base.meta().input, device)?;
+        let n = self.passes;
+        let mut x = Vec::with_capacity(n * f);
+        for _ in 0..n {
+            x.extend_from_slice(&features);
+        }
+        if self.p > 0.0 {
+            let mask = mc::dropout_mask(n, f, self.p, &mut self.rng);
+            x.iter_mut().zip(&mask).for_each(|(v, m)| *v *= m);
+        }
+        let out = self.stream.step(&x, n)?;
+        let rows: Vec<Vec<f32>> = out
+            .chunks_exact(self.stream.outputs())
+            .map(<[f32]>::to_vec)
+            .collect();
+        infer::estimates(&base.meta().coding, &rows, n)
             .pop()
             .ok_or_else(|| LearnError::Input("no estimate for the frame".into()))
     }

@@ -32,9 +32,11 @@
 mod head;
 mod infer;
 mod meta;
+mod stream;
 mod train;
 
-pub use head::{SeqHead, SeqHeadConfig, SeqStream};
+pub use head::{SeqHead, SeqHeadConfig};
 pub use infer::{SeqLocalizer, SeqTracker};
 pub use meta::{SEQ_BPK, SEQ_STATE_DIR, SEQ_TOML, SeqEpoch, SeqMeta};
+pub use stream::SeqStream;
 pub use train::{SeqConfig, SeqEvent, SeqSummary, train_sequence};

@@ -27,6 +27,7 @@ use scene::ScenePlan;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+use synth::render::RenderMode;
 
 /// The camera of the demo.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -56,6 +57,15 @@ pub struct DemoArgs {
     /// (the whole ground floor: lobby, corridor and rooms; needs more frames and training).
     #[arg(long, default_value = "corridor", value_parser = ["corridor", "storey"])]
     zone: String,
+    /// Render mode of the training and validation walks: textured (photo-like), shaded
+    /// (flat colours), edges (geometry edges) or gradmag (gradient magnitude). The test walk is
+    /// always textured; the test frames of an edges or gradmag model are turned into edges
+    /// (Canny) or gradient magnitude (the renderer's Sobel) first, as real photos would be.
+    #[arg(long, default_value = "textured", value_parser = ["textured", "shaded", "edges", "gradmag"])]
+    render_mode: String,
+    /// Appearance variant of the held-out test walk (as `synth --variant` names them).
+    #[arg(long, default_value = "normal")]
+    test_variant: String,
     /// Override the network's input view (a preset or spec text, as `train --view` takes).
     #[arg(long)]
     view: Option<String>,
@@ -141,6 +151,8 @@ fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
         frames_per_walk: train_frames.div_ceil(walks * variants.len()),
         val_frames: test_frames.div_ceil(2),
         test_frames,
+        train_mode: args.render_mode.clone(),
+        test_variant: args.test_variant.clone(),
     };
     let mut train = TrainConfig::new(data, model);
     train.task = Some(if ceiling { Task::Pose3 } else { Task::Pose6 });
@@ -291,6 +303,11 @@ impl Prepared {
     pub fn scene(&self) -> &ScenePlan {
         &self.setup.scene
     }
+
+    /// Median validation position error of the trained model, metres.
+    pub fn val_median_pos_m(&self) -> f64 {
+        self.summary.val_median_pos_m
+    }
 }
 
 /// Steps 1 and 2 of the demo: renders the dataset and trains the model (each reused when an
@@ -353,7 +370,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     say("3/4 localizing the held-out test walk, and a walk with scene cuts through the filter");
     let t = Instant::now();
     let ds = NativeDataset::open(&data_dir)?;
-    let results = localize_test(&ds, &model_dir, args.mc)?;
+    let results = localize_test(&ds, &model_dir, args.mc, setup.scene.train_mode()?)?;
     let cuts = crate::cmd::study::cuts::measure(
         &setup.scene,
         &model_dir,
@@ -424,29 +441,33 @@ fn summary_task(setup: &Setup) -> Task {
 }
 
 /// The test walk's frames through the model, with errors.
+/// `photo_as`: the render mode the model was trained on (see [`scene::photo_as`]).
 pub(crate) fn localize_test(
     ds: &NativeDataset,
     model_dir: &Path,
     mc: usize,
+    photo_as: RenderMode,
 ) -> Result<Vec<FrameResult>> {
     let loc = Localizer::load(model_dir)?;
     let index = ds.split_frames(SplitName::Test);
-    let views = views_of(ds, &index, &loc)?;
+    let views = views_of(ds, &index, &loc, photo_as)?;
     let estimates = loc.predict_batch(&views, mc)?;
     Ok(frame_results(ds, &index, estimates, loc.meta().coding.task))
 }
 
-/// The model's views of the dataset's frames `index` (decoded in parallel).
+/// The model's views of the dataset's frames `index` (decoded in parallel), each frame first
+/// turned into what a model trained on `photo_as` renders sees ([`scene::photo_as`]).
 pub(crate) fn views_of(
     ds: &NativeDataset,
     index: &[usize],
     loc: &Localizer,
+    photo_as: RenderMode,
 ) -> Result<Vec<imgproc::view::View>> {
     index
         .par_iter()
         .map(|&i| {
             let path = ds.frame_path(ds.frame_number(i).unwrap_or(i as u64));
-            let img = data::frames::decode_image(&path)?;
+            let img = scene::photo_as(data::frames::decode_image(&path)?, photo_as)?;
             loc.view(&img)
                 .with_context(|| format!("{}: cannot make the view", path.display()))
         })
@@ -511,7 +532,7 @@ pub struct Evaluation {
 }
 
 impl Evaluation {
-    fn of(results: &[FrameResult], task: Task) -> Result<Evaluation> {
+    pub(crate) fn of(results: &[FrameResult], task: Task) -> Result<Evaluation> {
         let truth: Vec<Pose> = results.iter().map(|r| r.truth).collect();
         let est: Vec<Pose> = results.iter().map(|r| r.estimate.pose).collect();
         if task == Task::Pose3 {

@@ -46,8 +46,31 @@ pub struct ScenePlan {
     pub frames_per_walk: usize,
     /// Frames of the validation walk (normal appearance).
     pub val_frames: usize,
-    /// Frames of the held-out test walk (normal appearance).
+    /// Frames of the held-out test walk.
     pub test_frames: usize,
+    /// Render mode of the training and validation walks (`synth --mode` names); the test walk
+    /// is always `textured`, photo-like. Left out of the plan file when `textured`.
+    #[serde(default = "textured", skip_serializing_if = "is_textured")]
+    pub train_mode: String,
+    /// Appearance variant of the test walk. Left out of the plan file when `normal`.
+    #[serde(default = "normal", skip_serializing_if = "is_normal")]
+    pub test_variant: String,
+}
+
+fn textured() -> String {
+    RenderMode::Textured.to_string()
+}
+
+fn is_textured(mode: &str) -> bool {
+    mode == RenderMode::Textured.name()
+}
+
+fn normal() -> String {
+    Variant::Normal.name().to_string()
+}
+
+fn is_normal(variant: &str) -> bool {
+    variant == Variant::Normal.name()
 }
 
 /// Name of the plan file in the dataset folder.
@@ -62,6 +85,19 @@ impl ScenePlan {
         } else {
             CameraKind::Forward
         }
+    }
+
+    /// The render mode of the training walks.
+    pub fn train_mode(&self) -> Result<RenderMode> {
+        self.train_mode
+            .parse::<RenderMode>()
+            .map_err(|e| anyhow::anyhow!("render mode '{}': {e}", self.train_mode))
+    }
+
+    fn test_variant(&self) -> Result<Variant> {
+        self.test_variant
+            .parse::<Variant>()
+            .map_err(|e| anyhow::anyhow!("variant '{}': {e}", self.test_variant))
     }
 
     fn variants(&self) -> Result<Vec<Variant>> {
@@ -145,7 +181,7 @@ fn sequences(plan: &ScenePlan) -> Result<Vec<Sequence>> {
     });
     seqs.push(Sequence {
         name: TEST_SEQ.into(),
-        variant: Variant::Normal,
+        variant: plan.test_variant()?,
         frames: walk(plan.test_frames, 901)?,
     });
     Ok(seqs)
@@ -176,6 +212,7 @@ pub fn render(plan: &ScenePlan, dir: &Path, progress: &(dyn Fn(usize) + Sync)) -
         .with_context(|| format!("cannot create {}", frames_dir.display()))?;
     let seqs = sequences(plan)?;
     let camera = camera(plan)?;
+    let train_mode = plan.train_mode()?;
     let counter = AtomicUsize::new(0);
     let mut first = 0;
     let mut starts = Vec::new();
@@ -196,13 +233,18 @@ pub fn render(plan: &ScenePlan, dir: &Path, progress: &(dyn Fn(usize) + Sync)) -
             .collect();
         let world = world(plan, variant)?;
         let scene = RenderScene::new(&world)?;
-        let shots: Vec<(usize, &PosedFrame)> = todo
+        let shots: Vec<Shot> = todo
             .iter()
             .flat_map(|(start, s)| {
+                let mode = if s.name == TEST_SEQ {
+                    RenderMode::Textured
+                } else {
+                    train_mode
+                };
                 s.frames
                     .iter()
                     .enumerate()
-                    .map(move |(k, f)| (start + k, f))
+                    .map(move |(k, f)| (start + k, f, mode))
             })
             .collect();
         render_shots(
@@ -221,21 +263,24 @@ pub fn render(plan: &ScenePlan, dir: &Path, progress: &(dyn Fn(usize) + Sync)) -
     Ok(true)
 }
 
-/// Renders `shots` (`(frame number, pose)`) textured into `frames_dir`, in parallel.
+/// One frame to render: frame number, pose, render mode.
+type Shot<'a> = (usize, &'a PosedFrame, RenderMode);
+
+/// Renders `shots` into `frames_dir`, in parallel.
 fn render_shots(
     plan: &ScenePlan,
     scene: &RenderScene,
     camera: &geom::Camera,
-    shots: &[(usize, &PosedFrame)],
+    shots: &[Shot<'_>],
     frames_dir: &Path,
     counter: &AtomicUsize,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<()> {
-    shots
-        .par_iter()
-        .try_for_each_init(Renderer::new, |renderer, &(index, frame)| -> Result<()> {
+    shots.par_iter().try_for_each_init(
+        Renderer::new,
+        |renderer, &(index, frame, mode)| -> Result<()> {
             let opts = RenderOptions {
-                mode: RenderMode::Textured,
+                mode,
                 seed: plan.seed.wrapping_mul(1_000_003).wrapping_add(index as u64),
                 ..RenderOptions::default()
             };
@@ -246,7 +291,8 @@ fn render_shots(
                 .with_context(|| format!("cannot write {}", path.display()))?;
             progress(counter.fetch_add(1, Ordering::Relaxed) + 1);
             Ok(())
-        })
+        },
+    )
 }
 
 /// Walks through the plan's zone joined by hard cuts to other places (`segments` walks of
@@ -286,7 +332,11 @@ pub fn render_cut_walk(
     let world = world(plan, Variant::Normal)?;
     let scene = RenderScene::new(&world)?;
     let camera = camera(plan)?;
-    let shots: Vec<(usize, &PosedFrame)> = frames.iter().enumerate().collect();
+    let shots: Vec<Shot> = frames
+        .iter()
+        .enumerate()
+        .map(|(k, f)| (k, f, RenderMode::Textured))
+        .collect();
     render_shots(
         plan,
         &scene,
@@ -343,7 +393,9 @@ fn write_metadata(
         "zone".into(),
         format!("building {} storey {}", plan.building, plan.storey),
     );
-    settings.insert("mode".into(), RenderMode::Textured.to_string());
+    settings.insert("mode".into(), plan.train_mode.clone());
+    settings.insert("test_mode".into(), RenderMode::Textured.to_string());
+    settings.insert("test_variant".into(), plan.test_variant.clone());
     settings.insert("train_variants".into(), plan.train_variants.join(","));
     let ceiling = plan.camera_kind() == CameraKind::Ceiling;
     let info = DatasetInfo {
@@ -369,4 +421,24 @@ fn write_metadata(
     };
     native::write_metadata(dir, &info, &Trajectory::new(frames), None, cuts, &splits)?;
     Ok(())
+}
+
+/// A photo-like image as a network trained on `mode` renders must see it: unchanged for
+/// `textured` and `shaded`, the renderer's gradient magnitude for `gradmag`, Canny edges
+/// (thresholds 50/150, white on black like the `edges` renders) for `edges`.
+pub fn photo_as(img: image::DynamicImage, mode: RenderMode) -> Result<image::DynamicImage> {
+    Ok(match mode {
+        RenderMode::Textured | RenderMode::Shaded => img,
+        RenderMode::Gradmag => {
+            image::DynamicImage::ImageRgb8(synth::render::gradmag_image(&img.to_rgb8()))
+        }
+        RenderMode::Edges => {
+            let rgb = img.to_rgb8();
+            let mut gray = image::GrayImage::new(rgb.width(), rgb.height());
+            imgproc::view::rgb_to_gray(&rgb, &mut gray)?;
+            let mut edges = image::GrayImage::new(rgb.width(), rgb.height());
+            imgproc::view::canny(&gray, &mut edges, 50.0, 150.0)?;
+            image::DynamicImage::ImageLuma8(edges)
+        }
+    })
 }

@@ -32,9 +32,8 @@ pub struct CutsArgs {
     /// Folder for the data, the model and `report.html` (a demo folder is reused as it is).
     #[arg(long, value_name = "DIR", default_value = "indoorloc-study-cuts")]
     out: PathBuf,
-    /// The demo's quick setup (minutes) instead of the full one.
-    #[arg(long)]
-    quick: bool,
+    #[command(flatten)]
+    scale: super::Scale,
     /// Walk segments joined by cuts in the test walk (default: 8 with --quick, else 16; at
     /// least 2).
     #[arg(long)]
@@ -117,7 +116,7 @@ pub(crate) fn measure(
     })?;
     pb.finish_and_clear();
     let ds = NativeDataset::open(dir)?;
-    let results = demo::localize_test(&ds, model_dir, mc)?;
+    let results = demo::localize_test(&ds, model_dir, mc, plan.train_mode()?)?;
     let detection = scenecut::detect_input(
         dir,
         &scenecut::Config::default(),
@@ -181,9 +180,11 @@ pub fn run(args: &CutsArgs) -> Result<()> {
             eprintln!("{text}");
         }
     };
-    let demo_args = super::demo_args(&args.out, args.quick)?;
+    let demo_args = super::demo_args(&args.out, &args.scale, &[])?;
     let prepared = demo::render_and_train(&demo_args, &say)?;
-    let segments = args.segments.unwrap_or(if args.quick { 8 } else { 16 });
+    let segments = args
+        .segments
+        .unwrap_or(if args.scale.quick { 8 } else { 16 });
     anyhow::ensure!(segments >= 2, "--segments must be at least 2 (one cut)");
     let cut_dir = args.out.join("cut-walk");
     say(&format!(

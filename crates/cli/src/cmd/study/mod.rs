@@ -2,6 +2,7 @@
 //! `DIR/report.html` with `--json` rows.
 
 pub(crate) mod cuts;
+mod render_types;
 mod sequence;
 
 use crate::cmd::demo::DemoArgs;
@@ -25,6 +26,9 @@ enum Study {
     /// Single-frame network against the CNN+LSTM sequence model on its features: median
     /// errors, frame-to-frame jitter and live latency on the held-out walk.
     Sequence(sequence::SequenceArgs),
+    /// Train on each synthetic render mode (shaded, textured, edges, gradmag), test on a
+    /// differently textured photo-like walk: synthetic-to-real transfer, as BIM-PoseNet.
+    RenderTypes(render_types::RenderTypesArgs),
 }
 
 /// Runs `indoorloc study`.
@@ -32,20 +36,49 @@ pub fn run(args: &StudyArgs) -> Result<()> {
     match &args.study {
         Study::Cuts(a) => cuts::run(a),
         Study::Sequence(a) => sequence::run(a),
+        Study::RenderTypes(a) => render_types::run(a),
     }
 }
 
-/// The demo arguments a study trains with: the demo's own defaults, quick or not, in `out`.
-pub(crate) fn demo_args(out: &Path, quick: bool) -> Result<DemoArgs> {
+/// How much a study renders and trains: the demo's quick or full setup, with overrides (small
+/// values make a study a smoke test).
+#[derive(Args, Debug, Clone, Default)]
+pub struct Scale {
+    /// The demo's quick setup (minutes) instead of the full one.
+    #[arg(long)]
+    quick: bool,
+    /// Override the number of training frames.
+    #[arg(long)]
+    train_frames: Option<usize>,
+    /// Override the length of the held-out test walk, frames.
+    #[arg(long)]
+    test_frames: Option<usize>,
+    /// Override the number of training epochs of the network.
+    #[arg(long)]
+    epochs: Option<usize>,
+}
+
+/// The demo arguments a study trains with: the demo's own defaults at `scale`, in `out`, with
+/// `extra` demo options.
+pub(crate) fn demo_args(out: &Path, scale: &Scale, extra: &[&str]) -> Result<DemoArgs> {
     #[derive(Parser)]
     struct Wrap {
         #[command(flatten)]
         demo: DemoArgs,
     }
-    let out = out.to_string_lossy().into_owned();
-    let mut argv = vec!["demo", "--out", out.as_str()];
-    if quick {
-        argv.push("--quick");
+    let mut argv: Vec<String> = vec!["demo".into(), "--out".into(), out.to_string_lossy().into()];
+    if scale.quick {
+        argv.push("--quick".into());
     }
+    for (flag, value) in [
+        ("--train-frames", scale.train_frames),
+        ("--test-frames", scale.test_frames),
+        ("--epochs", scale.epochs),
+    ] {
+        if let Some(v) = value {
+            argv.extend([flag.to_string(), v.to_string()]);
+        }
+    }
+    argv.extend(extra.iter().map(|s| s.to_string()));
     Ok(Wrap::try_parse_from(argv)?.demo)
 }

@@ -27,9 +27,8 @@ pub struct SequenceArgs {
     /// Folder for the data, the models and `report.html` (a demo folder is reused as it is).
     #[arg(long, value_name = "DIR", default_value = "indoorloc-study-sequence")]
     out: PathBuf,
-    /// The demo's quick setup (minutes) instead of the full one.
-    #[arg(long)]
-    quick: bool,
+    #[command(flatten)]
+    scale: super::Scale,
     /// Frames per training window of the sequence model.
     #[arg(long, default_value_t = 10)]
     window: usize,
@@ -89,7 +88,7 @@ pub fn run(args: &SequenceArgs) -> Result<()> {
             eprintln!("{text}");
         }
     };
-    let demo_args = super::demo_args(&args.out, args.quick)?;
+    let demo_args = super::demo_args(&args.out, &args.scale, &[])?;
     let prepared = demo::render_and_train(&demo_args, &say)?;
     say(&format!(
         "3/5 the sequence model: windows of {} frames on the network's features",
@@ -108,7 +107,7 @@ pub fn run(args: &SequenceArgs) -> Result<()> {
     let base = seq.base();
     let task = base.meta().coding.task;
     let index = ds.split_frames(SplitName::Test);
-    let views = demo::views_of(&ds, &index, base)?;
+    let views = demo::views_of(&ds, &index, base, prepared.scene().train_mode()?)?;
     let single = demo::frame_results(&ds, &index, base.predict_batch(&views, args.mc)?, task);
     let keys: Vec<(String, u64)> = index
         .iter()

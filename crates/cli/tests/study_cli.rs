@@ -1,0 +1,83 @@
+//! The studies that train models, end to end at a toy size: they run, print the rows their
+//! issues name, and write their reports.
+
+use crate::util::{TestResult, indoorloc, json_of};
+
+/// The demo's toy scale, as `demo_cli` runs it.
+const TOY: [&str; 7] = [
+    "--quick",
+    "--train-frames",
+    "48",
+    "--test-frames",
+    "24",
+    "--epochs",
+    "1",
+];
+
+#[test]
+fn study_sequence_compares_single_frame_and_sequence_models() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("seq");
+    let mut args = vec!["study", "sequence", "--out", out.to_str().ok_or("path")?];
+    args.extend(TOY);
+    args.extend([
+        "--window",
+        "4",
+        "--lstm-units",
+        "16",
+        "--seq-epochs",
+        "1",
+        "--mc",
+        "2",
+        "--latency-frames",
+        "3",
+        "--json",
+    ]);
+    let o = json_of(&indoorloc(&args)?)?;
+    let rows = o["rows"].as_array().ok_or("rows")?;
+    let models: Vec<&str> = rows.iter().filter_map(|r| r["model"].as_str()).collect();
+    assert_eq!(models, ["single", "sequence"]);
+    for r in rows {
+        for key in ["median_pos_m", "median_rot_deg", "jitter_m", "latency_ms"] {
+            let v = r[key].as_f64().ok_or(key)?;
+            assert!(v.is_finite() && v >= 0.0, "{key} = {v}");
+        }
+    }
+    assert_eq!(o["frames"], 24);
+    assert!(out.join("model").join("seq.toml").is_file());
+    let html = std::fs::read_to_string(out.join("sequence-report.html"))?;
+    assert!(html.contains("<svg") && html.contains("jitter"));
+    Ok(())
+}
+
+#[test]
+fn study_render_types_trains_per_mode_and_tests_on_photo_like_frames() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("rt");
+    let mut args = vec![
+        "study",
+        "render-types",
+        "--out",
+        out.to_str().ok_or("path")?,
+    ];
+    args.extend(TOY);
+    args.extend(["--modes", "edges,gradmag", "--mc", "0", "--json"]);
+    let o = json_of(&indoorloc(&args)?)?;
+    let rows = o["rows"].as_array().ok_or("rows")?;
+    let modes: Vec<&str> = rows.iter().filter_map(|r| r["mode"].as_str()).collect();
+    assert_eq!(modes, ["edges", "gradmag"]);
+    for r in rows {
+        let m = r["median_pos_m"].as_f64().ok_or("median_pos_m")?;
+        assert!(m.is_finite() && m > 0.0, "{m}");
+        assert_eq!(r["accuracy"].as_array().ok_or("accuracy")?.len(), 3);
+    }
+    assert_eq!(o["test_variant"], "texture-swap");
+    // the training walks are rendered in the mode, the test walk photo-like
+    let plan = std::fs::read_to_string(out.join("edges").join("data").join("demo-plan.toml"))?;
+    assert!(plan.contains("train_mode = \"edges\"") && plan.contains("texture-swap"));
+    assert!(std::fs::read_to_string(out.join("report.html"))?.contains("<svg"));
+    // an unknown mode is refused before anything is rendered
+    let bad = indoorloc(&["study", "render-types", "--modes", "sketch"])?;
+    assert_eq!(bad.status.code(), Some(2));
+    Ok(())
+}
