@@ -11,6 +11,9 @@
 //!    and the network alone for reference. Errors are split into frames just after a cut (the
 //!    cut frame and the `--cut-window` frames after it, as `eval --cuts` splits them) and the
 //!    others.
+//! 5. When the model folder holds a sequence model (`train --window`, `study sequence`), its
+//!    LSTM runs the walk the same three ways: its state never reset, reset at the gold cuts,
+//!    reset at the detected cuts ("starts" counts the runs).
 
 use crate::cmd::demo::{self, FrameResult, scene};
 use crate::output::{print_json, print_text};
@@ -21,6 +24,7 @@ use data::native::NativeDataset;
 use geom::Pose;
 use learn::Task;
 use learn::checkpoint::ModelMeta;
+use learn::seq::{SeqLocalizer, SeqMeta};
 use report::{HtmlReport, Series, Table};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -52,7 +56,8 @@ pub struct CutsArgs {
 /// One row of the table.
 #[derive(Debug, Serialize)]
 struct Row {
-    /// `none`, `gold`, `detected` (the filter), or `network` (no temporal state).
+    /// `none`, `gold`, `detected` (the filter or the sequence model), or `network` (no temporal
+    /// state).
     handling: &'static str,
     /// What produced the poses.
     model: &'static str,
@@ -61,7 +66,8 @@ struct Row {
     median_pos_m_elsewhere: f64,
     mean_pos_m_after_cut: f64,
     median_rot_deg: f64,
-    /// Times the filter started over (first frame, resets, give-ups after refusals).
+    /// Times the filter or the sequence model started over (first frame, resets, the filter's
+    /// give-ups after refusals).
     starts: usize,
 }
 
@@ -152,6 +158,33 @@ pub(crate) fn measure(
             errs.iter().map(|e| e.0).collect::<Vec<_>>(),
         ));
         rows.push(row(handling, "network + filter", &errs, &near, starts));
+    }
+    if SeqMeta::exists(model_dir) {
+        let seq = SeqLocalizer::load(model_dir)?;
+        let index: Vec<usize> = results.iter().map(|r| r.index).collect();
+        let views = demo::views_of(&ds, &index, seq.base(), plan.train_mode()?)?;
+        let keys: Vec<(&str, u64)> = index
+            .iter()
+            .map(|&i| (ds.trajectory.frames[i].seq.as_str(), i as u64))
+            .collect();
+        let task = seq.base().meta().coding.task;
+        for (handling, resets) in [
+            ("none", &[][..]),
+            ("gold", &gold[..]),
+            ("detected", &detected[..]),
+        ] {
+            let runs = learn::window::runs(&keys, resets);
+            let estimates = seq.predict_runs(&views, &runs, mc)?;
+            let errs: Vec<(f64, f64)> = demo::frame_results(&ds, &index, estimates, task)
+                .iter()
+                .map(|r| (r.pos_err_m, r.rot_err_deg))
+                .collect();
+            curves.push(Series::new(
+                format!("sequence, cuts {handling}"),
+                errs.iter().map(|e| e.0).collect::<Vec<_>>(),
+            ));
+            rows.push(row(handling, "sequence model", &errs, &near, runs.len()));
+        }
     }
     let score = scenecut::score_hard(
         &detected,
