@@ -3,25 +3,32 @@
 
 use crate::util::{TestResult, indoorloc, json_of, shared_data};
 
-#[test]
-fn train_localize_eval_agree_on_the_validation_error() -> TestResult {
-    let dir = tempfile::tempdir()?;
-    let (ds, model) = (dir.path().join("ds"), dir.path().join("model"));
-    let (ds_s, model_s) = (ds.to_str().ok_or("path")?, model.to_str().ok_or("path")?);
+/// Renders a small native dataset of `frames` frames in `sequences` sequences into `out`.
+fn synth_dataset(out: &str, frames: usize, sequences: usize) -> TestResult {
+    let (frames, sequences) = (frames.to_string(), sequences.to_string());
     json_of(&indoorloc(&[
         "synth",
         "--out",
-        ds_s,
+        out,
         "--frames",
-        "48",
+        &frames,
         "--sequences",
-        "6",
+        &sequences,
         "--size",
         "64x48",
         "--no-depth",
         "--no-planes",
         "--json",
     ])?)?;
+    Ok(())
+}
+
+#[test]
+fn train_localize_eval_agree_on_the_validation_error() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let (ds, model) = (dir.path().join("ds"), dir.path().join("model"));
+    let (ds_s, model_s) = (ds.to_str().ok_or("path")?, model.to_str().ok_or("path")?);
+    synth_dataset(ds_s, 48, 6)?;
     let train = |extra: &[&str]| -> TestResult<serde_json::Value> {
         let mut args = vec![
             "train",
@@ -195,20 +202,7 @@ fn a_sequence_model_localizes_recordings_as_it_was_validated() -> TestResult {
     let dir = tempfile::tempdir()?;
     let (ds, model) = (dir.path().join("ds"), dir.path().join("model"));
     let (ds_s, model_s) = (ds.to_str().ok_or("path")?, model.to_str().ok_or("path")?);
-    json_of(&indoorloc(&[
-        "synth",
-        "--out",
-        ds_s,
-        "--frames",
-        "60",
-        "--sequences",
-        "5",
-        "--size",
-        "64x48",
-        "--no-depth",
-        "--no-planes",
-        "--json",
-    ])?)?;
+    synth_dataset(ds_s, 60, 5)?;
     let t = json_of(&indoorloc(&[
         "train",
         "--data",

@@ -17,6 +17,7 @@
 use std::path::{Path, PathBuf};
 
 use burn::module::Module;
+use burn::optim::ModuleOptimizer;
 use burn::store::ModuleRecord;
 use burn::tensor::Bytes;
 use serde::{Deserialize, Serialize};
@@ -161,9 +162,9 @@ impl ModelMeta {
     }
 }
 
-/// The burnpack bytes of a module's weights.
-pub fn weights_bytes(net: PoseNet, path: &Path) -> Result<Vec<u8>> {
-    let bytes = net
+/// The burnpack bytes of a module's weights (`path`: where they will go, for the error).
+pub fn weights_bytes<M: Module>(module: M, path: &Path) -> Result<Vec<u8>> {
+    let bytes = module
         .into_record()
         .into_bytes()
         .map_err(|e| LearnError::corrupt(path, format!("cannot serialise weights: {e}")))?;
@@ -200,22 +201,51 @@ pub fn load_weights(
     device: &burn::tensor::Device,
     path: &Path,
 ) -> Result<PoseNet> {
+    load_into(config.init(device, 0)?, bytes, path)
+}
+
+/// `module` with the weights in `bytes` (read from `path`, named in errors).
+pub fn load_into<M: Module>(module: M, bytes: Vec<u8>, path: &Path) -> Result<M> {
     let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(bytes))
         .map_err(|e| LearnError::corrupt(path, e.to_string()))?;
-    config
-        .init(device, 0)?
+    module
         .try_load_record(record)
         .map_err(|e| LearnError::corrupt(path, e.to_string()))
 }
 
-/// Name of the state weights of epoch `epoch`.
-pub fn state_weights_name(epoch: usize) -> String {
-    format!("{STATE_DIR}/weights-{epoch:04}.bpk")
+/// Writes the resume state of epoch `epoch` into `dir/folder` (`weights-NNNN.bpk`,
+/// `optimizer-NNNN.bpk`, atomically) and returns their names and hashes.
+pub fn write_state<M: Module>(
+    dir: &Path,
+    folder: &str,
+    epoch: usize,
+    module: M,
+    optim: &ModuleOptimizer,
+) -> Result<StateFiles> {
+    let weights_name = format!("{folder}/weights-{epoch:04}.bpk");
+    let optimizer_name = format!("{folder}/optimizer-{epoch:04}.bpk");
+    let weights = weights_bytes(module, &dir.join(&weights_name))?;
+    let opt = optim
+        .into_bytes()
+        .map_err(|e| LearnError::corrupt(dir.join(&optimizer_name), e.to_string()))?;
+    Ok(StateFiles {
+        weights_hash: write_file(dir, &weights_name, &weights)?,
+        weights: weights_name,
+        optimizer_hash: write_file(dir, &optimizer_name, &opt)?,
+        optimizer: optimizer_name,
+    })
 }
 
-/// Name of the optimizer state of epoch `epoch`.
-pub fn state_optimizer_name(epoch: usize) -> String {
-    format!("{STATE_DIR}/optimizer-{epoch:04}.bpk")
+/// The optimizer of the resume state `state` in `dir`, into a `fresh` one of the same kind.
+pub fn read_optimizer(
+    dir: &Path,
+    state: &StateFiles,
+    fresh: ModuleOptimizer,
+) -> Result<ModuleOptimizer> {
+    let bytes = read_checked(dir, &state.optimizer, &state.optimizer_hash)?;
+    fresh
+        .from_bytes(Bytes::from_bytes_vec(bytes))
+        .map_err(|e| LearnError::corrupt(dir.join(&state.optimizer), e.to_string()))
 }
 
 /// Removes state files that `keep` does not name from the folder they are in (older epochs,

@@ -12,14 +12,16 @@ use std::time::Instant;
 use burn::module::Module;
 use burn::optim::decay::WeightDecayConfig;
 use burn::optim::{AdamConfig, AdamWConfig, GradientsParams, ModuleOptimizer};
-use burn::tensor::{Bytes, Device, Tensor, TensorData};
+use burn::tensor::{Device, Tensor, TensorData};
 use imgproc::view::ViewSpec;
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::checkpoint::{self, DatasetRef, FORMAT, MODEL_BPK, MODEL_TOML, ModelMeta, StateFiles};
+use crate::checkpoint::{
+    self, DatasetRef, FORMAT, MODEL_BPK, MODEL_TOML, ModelMeta, STATE_DIR, StateFiles,
+};
 use crate::dataset::{self, Samples, TrainData};
 use crate::head::{PoseCoding, Task};
 use crate::infer;
@@ -486,12 +488,7 @@ fn resume(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device)
     }
     let weights = checkpoint::read_checked(dir, &meta.state.weights, &meta.state.weights_hash)?;
     let net = checkpoint::load_weights(&meta.net, weights, device, &dir.join(&meta.state.weights))?;
-    let opt_path = dir.join(&meta.state.optimizer);
-    let opt_bytes =
-        checkpoint::read_checked(dir, &meta.state.optimizer, &meta.state.optimizer_hash)?;
-    let optim = optimizer(cfg)
-        .from_bytes(Bytes::from_bytes_vec(opt_bytes))
-        .map_err(|e| LearnError::corrupt(&opt_path, e.to_string()))?;
+    let optim = checkpoint::read_optimizer(dir, &meta.state, optimizer(cfg))?;
     let stale = meta.epoch.saturating_sub(meta.best_epoch);
     let mut meta = meta;
     meta.config.epochs = cfg.epochs;
@@ -677,18 +674,7 @@ fn save_epoch(
     optim: &ModuleOptimizer,
     best: Option<PoseNet>,
 ) -> Result<()> {
-    let weights_name = checkpoint::state_weights_name(meta.epoch);
-    let optimizer_name = checkpoint::state_optimizer_name(meta.epoch);
-    let weights = checkpoint::weights_bytes(net.clone(), &dir.join(&weights_name))?;
-    let opt = optim
-        .into_bytes()
-        .map_err(|e| LearnError::corrupt(dir.join(&optimizer_name), e.to_string()))?;
-    meta.state = StateFiles {
-        weights_hash: checkpoint::write_file(dir, &weights_name, &weights)?,
-        weights: weights_name,
-        optimizer_hash: checkpoint::write_file(dir, &optimizer_name, &opt)?,
-        optimizer: optimizer_name,
-    };
+    meta.state = checkpoint::write_state(dir, STATE_DIR, meta.epoch, net.clone(), optim)?;
     if let Some(best) = best {
         let bytes = checkpoint::weights_bytes(best, &dir.join(MODEL_BPK))?;
         meta.weights_hash = checkpoint::write_file(dir, MODEL_BPK, &bytes)?;

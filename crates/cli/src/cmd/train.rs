@@ -83,10 +83,11 @@ pub struct TrainArgs {
     /// Seed of initialisation, shuffling, augmentation and dropout.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Also train a sequence model (CNN+LSTM) over windows of K consecutive frames, on the
-    /// features of the single-frame network (trained first, or reused with --resume); written
-    /// beside it (seq.toml, seq.bpk), and used by `localize` on recordings.
-    #[arg(long, value_name = "K")]
+    /// Also train a sequence model (CNN+LSTM) over windows of K consecutive frames (10 when
+    /// K is left out), on the features of the single-frame network (trained first, or reused
+    /// with --resume); written beside it (seq.toml, seq.bpk), and used by `localize` on
+    /// recordings.
+    #[arg(long, value_name = "K", num_args = 0..=1, default_missing_value = "10")]
     window: Option<usize>,
     /// LSTM units of the sequence model.
     #[arg(long, default_value_t = 256)]
@@ -354,4 +355,37 @@ pub fn train_sequence_with_progress(cfg: &SeqConfig, lines: bool) -> Result<SeqS
         p.finish_and_clear();
     }
     Ok(summary?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Wrap {
+        #[command(flatten)]
+        train: TrainArgs,
+    }
+
+    fn parse(extra: &[&str]) -> TrainArgs {
+        let mut argv = vec!["train", "--data", "d", "--out", "m"];
+        argv.extend_from_slice(extra);
+        Wrap::parse_from(argv).train
+    }
+
+    #[test]
+    fn window_alone_means_ten_frames_and_the_sequence_shares_beta_and_dropout() {
+        assert!(parse(&[]).seq_config().is_none());
+        let cfg = parse(&["--window"]).seq_config();
+        assert_eq!(cfg.as_ref().map(|c| c.window), Some(10));
+        let cfg = parse(&["--window", "4", "--beta", "600", "--dropout", "0.3"]).seq_config();
+        let cfg = cfg.as_ref();
+        assert_eq!(
+            cfg.map(|c| (c.window, c.beta, c.dropout)),
+            Some((4, Some(600.0), Some(0.3)))
+        );
+        let cfg = parse(&["--window", "4", "--seq-beta", "50"]).seq_config();
+        assert_eq!(cfg.and_then(|c| c.beta), Some(50.0));
+    }
 }

@@ -14,7 +14,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::head::SeqHead;
-use super::meta::{self, SEQ_BPK, SEQ_TOML, SeqMeta};
+use super::meta::{SEQ_BPK, SEQ_TOML, SeqMeta};
 use super::stream::SeqStream;
 use crate::checkpoint;
 use crate::infer::{self, Estimate, Localizer};
@@ -59,7 +59,8 @@ impl SeqLocalizer {
             )));
         }
         let bytes = checkpoint::read_checked(dir, SEQ_BPK, &meta.weights_hash)?;
-        let head = meta::load_head(&meta.head, bytes, base.device(), &dir.join(SEQ_BPK))?;
+        let head =
+            checkpoint::load_into(meta.head.init(base.device(), 0), bytes, &dir.join(SEQ_BPK))?;
         let stream = head.stream()?;
         Ok(SeqLocalizer {
             base,

@@ -3,12 +3,9 @@
 
 use std::path::Path;
 
-use burn::module::Module;
-use burn::store::ModuleRecord;
-use burn::tensor::{Bytes, Device};
 use serde::{Deserialize, Serialize};
 
-use super::head::{SeqHead, SeqHeadConfig};
+use super::head::SeqHeadConfig;
 use super::train::SeqConfig;
 use crate::checkpoint::StateFiles;
 use crate::{LearnError, Result};
@@ -115,38 +112,4 @@ impl SeqMeta {
         data::io::write_text_atomic(&path, &text)?;
         Ok(())
     }
-}
-
-/// The burnpack bytes of a head's weights.
-pub(super) fn head_bytes(head: SeqHead, path: &Path) -> Result<Vec<u8>> {
-    let bytes = head
-        .into_record()
-        .into_bytes()
-        .map_err(|e| LearnError::corrupt(path, format!("cannot serialise weights: {e}")))?;
-    Ok(bytes.to_vec())
-}
-
-/// A head built from `config` on `device` with the weights in `bytes` (read from `path`).
-pub(super) fn load_head(
-    config: &SeqHeadConfig,
-    bytes: Vec<u8>,
-    device: &Device,
-    path: &Path,
-) -> Result<SeqHead> {
-    let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(bytes))
-        .map_err(|e| LearnError::corrupt(path, e.to_string()))?;
-    config
-        .init(device, 0)
-        .try_load_record(record)
-        .map_err(|e| LearnError::corrupt(path, e.to_string()))
-}
-
-/// Name of the state weights of epoch `epoch`.
-pub(super) fn state_weights_name(epoch: usize) -> String {
-    format!("{SEQ_STATE_DIR}/weights-{epoch:04}.bpk")
-}
-
-/// Name of the optimizer state of epoch `epoch`.
-pub(super) fn state_optimizer_name(epoch: usize) -> String {
-    format!("{SEQ_STATE_DIR}/optimizer-{epoch:04}.bpk")
 }

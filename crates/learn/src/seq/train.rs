@@ -16,7 +16,7 @@ use std::time::Instant;
 
 use burn::module::Module;
 use burn::optim::{AdamWConfig, GradientsParams, ModuleOptimizer};
-use burn::tensor::{Bytes, Device, Tensor, TensorData};
+use burn::tensor::{Device, Tensor, TensorData};
 use geom::Pose;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
@@ -25,7 +25,7 @@ use serde::{Deserialize, Serialize};
 
 use super::head::{SeqHead, SeqHeadConfig};
 use super::infer::run_outputs;
-use super::meta::{self, SEQ_BPK, SEQ_FORMAT, SEQ_TOML, SeqEpoch, SeqMeta};
+use super::meta::{SEQ_BPK, SEQ_FORMAT, SEQ_STATE_DIR, SEQ_TOML, SeqEpoch, SeqMeta};
 use crate::checkpoint::{self, MODEL_TOML, StateFiles};
 use crate::dataset::{self, Samples};
 use crate::head::PoseCoding;
@@ -391,13 +391,12 @@ fn resume(
         ));
     }
     let weights = checkpoint::read_checked(dir, &meta.state.weights, &meta.state.weights_hash)?;
-    let head = meta::load_head(&head_cfg, weights, device, &dir.join(&meta.state.weights))?;
-    let opt_path = dir.join(&meta.state.optimizer);
-    let opt_bytes =
-        checkpoint::read_checked(dir, &meta.state.optimizer, &meta.state.optimizer_hash)?;
-    let optim = optimizer(cfg)
-        .from_bytes(Bytes::from_bytes_vec(opt_bytes))
-        .map_err(|e| LearnError::corrupt(&opt_path, e.to_string()))?;
+    let head = checkpoint::load_into(
+        head_cfg.init(device, 0),
+        weights,
+        &dir.join(&meta.state.weights),
+    )?;
+    let optim = checkpoint::read_optimizer(dir, &meta.state, optimizer(cfg))?;
     let stale = meta.epoch.saturating_sub(meta.best_epoch);
     let mut meta = meta;
     meta.config.epochs = cfg.epochs;
@@ -595,20 +594,9 @@ fn save_epoch(
     optim: &ModuleOptimizer,
     best: Option<SeqHead>,
 ) -> Result<()> {
-    let weights_name = meta::state_weights_name(meta.epoch);
-    let optimizer_name = meta::state_optimizer_name(meta.epoch);
-    let weights = meta::head_bytes(head.clone(), &dir.join(&weights_name))?;
-    let opt = optim
-        .into_bytes()
-        .map_err(|e| LearnError::corrupt(dir.join(&optimizer_name), e.to_string()))?;
-    meta.state = StateFiles {
-        weights_hash: checkpoint::write_file(dir, &weights_name, &weights)?,
-        weights: weights_name,
-        optimizer_hash: checkpoint::write_file(dir, &optimizer_name, &opt)?,
-        optimizer: optimizer_name,
-    };
+    meta.state = checkpoint::write_state(dir, SEQ_STATE_DIR, meta.epoch, head.clone(), optim)?;
     if let Some(best) = best {
-        let bytes = meta::head_bytes(best, &dir.join(SEQ_BPK))?;
+        let bytes = checkpoint::weights_bytes(best, &dir.join(SEQ_BPK))?;
         meta.weights_hash = checkpoint::write_file(dir, SEQ_BPK, &bytes)?;
     }
     meta.write(dir)?;
