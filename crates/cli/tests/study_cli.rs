@@ -45,7 +45,7 @@ fn study_sequence_compares_single_frame_and_sequence_models() -> TestResult {
     }
     assert_eq!(o["frames"], 24);
     assert!(out.join("model").join("seq.toml").is_file());
-    let html = std::fs::read_to_string(out.join("sequence-report.html"))?;
+    let html = std::fs::read_to_string(out.join("report.html"))?;
     assert!(html.contains("<svg") && html.contains("jitter"));
     Ok(())
 }

@@ -8,7 +8,8 @@
 //! for real photos of the building. As BIM-PoseNet turns real photos into edges or gradient
 //! magnitude for the models trained on those renders, the test frames of the `edges` model
 //! go through Canny and those of the `gradmag` model through the renderer's own Sobel
-//! magnitude (`demo::scene::photo_as`).
+//! magnitude (`demo::scene::photo_as`). With `--quick` each mode trains on half the quick
+//! demo's frames, so that the four trainings stay within 15 minutes on two cores.
 
 use crate::cmd::demo::{self, Evaluation, FrameResult};
 use crate::output::{print_json, print_text};
@@ -19,6 +20,9 @@ use learn::Task;
 use report::{HtmlReport, Series, Table};
 use serde::Serialize;
 use std::path::PathBuf;
+
+/// Training frames per mode with `--quick` (half the quick demo's).
+const QUICK_TRAIN_FRAMES: usize = 8000;
 
 /// The render modes compared, in table order.
 const MODES: [&str; 4] = ["shaded", "textured", "edges", "gradmag"];
@@ -84,6 +88,11 @@ pub fn run(args: &RenderTypesArgs) -> Result<()> {
     } else {
         args.modes.clone()
     };
+    // four trainings: --quick gives each half the demo's quick frames, to stay within 15 min
+    let mut scale = args.scale.clone();
+    if scale.quick && scale.train_frames.is_none() {
+        scale.train_frames = Some(QUICK_TRAIN_FRAMES);
+    }
     let mut rows = Vec::new();
     let mut curves = Vec::new();
     let mut frames = 0;
@@ -96,7 +105,7 @@ pub fn run(args: &RenderTypesArgs) -> Result<()> {
         ));
         let demo_args = super::demo_args(
             &args.out.join(mode),
-            &args.scale,
+            &scale,
             &["--render-mode", mode, "--test-variant", &args.test_variant],
         )?;
         let prepared = demo::render_and_train(&demo_args, &say)?;

@@ -24,7 +24,8 @@ use std::time::Instant;
 /// Arguments of `indoorloc study sequence`.
 #[derive(Args, Debug)]
 pub struct SequenceArgs {
-    /// Folder for the data, the models and `report.html` (a demo folder is reused as it is).
+    /// Folder for the data, the models and `report.html` (a demo folder is reused as it is; its
+    /// `report.html` is then this study's).
     #[arg(long, value_name = "DIR", default_value = "indoorloc-study-sequence")]
     out: PathBuf,
     #[command(flatten)]
@@ -137,7 +138,7 @@ pub fn run(args: &SequenceArgs) -> Result<()> {
         row("single", &single, single_ms, single_mc_ms)?,
         row("sequence", &sequence, seq_ms, seq_mc_ms)?,
     ];
-    let report = args.out.join("sequence-report.html");
+    let report = args.out.join("report.html");
     write_report(&report, &rows, &single, &sequence, args)?;
     let out = StudyOutput {
         frames: index.len(),
