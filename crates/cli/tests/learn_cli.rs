@@ -252,3 +252,45 @@ fn a_sequence_model_localizes_recordings_as_it_was_validated() -> TestResult {
     assert!((single - want).abs() < 1e-3, "{single} vs {want}");
     Ok(())
 }
+
+/// `train --task place` learns the place labels of a rendered dataset; the JSON carries the
+/// accuracy per level and the split; the model files are written.
+#[test]
+fn a_place_classifier_trains_from_the_command_line() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let (ds, model) = (dir.path().join("ds"), dir.path().join("model"));
+    let (ds_s, model_s) = (ds.to_str().ok_or("path")?, model.to_str().ok_or("path")?);
+    synth_dataset(ds_s, 60, 5)?;
+    assert!(ds.join("labels.csv").is_file());
+    for split in ["session", "random"] {
+        let t = json_of(&indoorloc(&[
+            "train",
+            "--data",
+            ds_s,
+            "--out",
+            model_s,
+            "--task",
+            "place",
+            "--place-split",
+            split,
+            "--view",
+            "resize=32x24,norm=pm1",
+            "--batch",
+            "8",
+            "--epochs",
+            "1",
+            "--json",
+        ])?)?;
+        assert_eq!(t["split"], split);
+        for level in ["building", "floor", "corridor"] {
+            let a = t["val_accuracy"][level].as_f64().ok_or("accuracy")?;
+            assert!((0.0..=1.0).contains(&a), "{level} {a}");
+        }
+        assert!(model.join("place.toml").is_file() && model.join("place.bpk").is_file());
+    }
+    let bad = indoorloc(&[
+        "train", "--data", ds_s, "--out", model_s, "--task", "place", "--window", "4",
+    ])?;
+    assert_eq!(bad.status.code(), Some(2));
+    Ok(())
+}

@@ -54,6 +54,28 @@ impl Samples {
         let n = self.view_len();
         &self.inputs[i * n..(i + 1) * n]
     }
+
+    /// The samples `indices` of `self` and then of `other` (indices past `self.len()` count
+    /// on into `other`), e.g. to split the frames of two splits again.
+    pub fn select(&self, other: &Samples, indices: &[usize]) -> Samples {
+        let mut out = Samples {
+            channels: self.channels,
+            width: self.width,
+            height: self.height,
+            ..Samples::default()
+        };
+        for &i in indices {
+            let (from, j) = if i < self.len() {
+                (self, i)
+            } else {
+                (other, i - self.len())
+            };
+            out.inputs.extend_from_slice(from.input(j));
+            out.poses.push(from.poses[j]);
+            out.names.push(from.names[j].clone());
+        }
+        out
+    }
 }
 
 /// A dataset ready for training.

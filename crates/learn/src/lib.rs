@@ -38,6 +38,7 @@ pub mod infer;
 pub mod loader;
 pub mod loss;
 pub mod net;
+pub mod place;
 pub mod seq;
 pub mod train;
 pub mod window;

@@ -4,13 +4,36 @@
 use crate::output::{print_json, print_text};
 use crate::progress::bar;
 use anyhow::Result;
-use clap::Args;
+use clap::{Args, ValueEnum};
 use indicatif::ProgressBar;
+use learn::place::{PlaceConfig, PlaceEvent};
 use learn::seq::{SeqConfig, SeqEvent, SeqSummary};
 use learn::{Arch, OptimizerKind, Schedule, Task, TrainConfig, TrainEvent, TrainSummary};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
+
+/// What `train` learns.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum TaskArg {
+    /// 6-DoF pose.
+    Pose6,
+    /// 3-DoF pose of a ceiling camera.
+    Pose3,
+    /// Place classes.
+    Place,
+}
+
+impl TaskArg {
+    /// The pose task, `None` for places.
+    fn pose(self) -> Option<Task> {
+        match self {
+            TaskArg::Pose6 => Some(Task::Pose6),
+            TaskArg::Pose3 => Some(Task::Pose3),
+            TaskArg::Place => None,
+        }
+    }
+}
 
 /// Arguments of `indoorloc train`.
 #[derive(Args, Debug)]
@@ -21,10 +44,15 @@ pub struct TrainArgs {
     /// Checkpoint folder (model.toml, model.bpk, training state).
     #[arg(long, value_name = "MODEL")]
     out: PathBuf,
-    /// pose6 (position + quaternion) or pose3 (x, y, heading of a ceiling camera); default from
-    /// the dataset's dof.
-    #[arg(long)]
-    task: Option<Task>,
+    /// pose6 (position + quaternion), pose3 (x, y, heading of a ceiling camera), or place
+    /// (building, floor, corridor and direction classifier from labels.csv, written as
+    /// place.toml / place.bpk); default: pose from the dataset's dof.
+    #[arg(long, value_enum)]
+    task: Option<TaskArg>,
+    /// For --task place: validation frames by recording session (sequence) or drawn at random
+    /// from all frames (leaky: near-twins of validation frames are in training).
+    #[arg(long, default_value = "session", value_parser = ["session", "random"])]
+    place_split: String,
     /// Backbone: small (fast), resnet18, resnet34 or googlenet (GoogLeNet + BatchNorm up to its
     /// first auxiliary classifier, as ceiling-camera work uses).
     #[arg(long, default_value = "small")]
@@ -110,7 +138,7 @@ impl TrainArgs {
     /// The library configuration these arguments describe.
     pub fn config(&self) -> TrainConfig {
         let mut cfg = TrainConfig::new(&self.data, &self.out);
-        cfg.task = self.task;
+        cfg.task = self.task.and_then(TaskArg::pose);
         cfg.arch = self.arch;
         cfg.view = self.view.clone();
         cfg.epochs = self.epochs;
@@ -183,8 +211,149 @@ struct SeqOutput {
     val_median_rot_deg: f64,
 }
 
+/// The place classifier's configuration these arguments describe.
+pub fn place_config(args: &TrainArgs) -> Result<PlaceConfig> {
+    let mut cfg = PlaceConfig::new(&args.data, &args.out);
+    cfg.arch = args.arch;
+    cfg.view = args.view.clone();
+    cfg.epochs = args.epochs;
+    cfg.batch_size = args.batch;
+    cfg.lr = args.lr;
+    cfg.weight_decay = args.weight_decay;
+    cfg.dropout = args.dropout;
+    cfg.split = args.place_split.parse()?;
+    cfg.augment = args.augment;
+    cfg.patience = Some(args.patience);
+    cfg.seed = args.seed;
+    cfg.resume = args.resume;
+    Ok(cfg)
+}
+
+/// The `--json` document of `train --task place`.
+#[derive(Debug, Serialize)]
+struct PlaceOutput {
+    out: PathBuf,
+    epochs: usize,
+    best_epoch: usize,
+    split: String,
+    val_accuracy: PlaceAccuracy,
+    train_frames: usize,
+    val_frames: usize,
+    seconds: f64,
+}
+
+/// Accuracy per level.
+#[derive(Debug, Serialize)]
+pub struct PlaceAccuracy {
+    /// Building.
+    pub building: f64,
+    /// Floor.
+    pub floor: f64,
+    /// Corridor and direction.
+    pub corridor: f64,
+}
+
+impl From<[f64; 3]> for PlaceAccuracy {
+    fn from([building, floor, corridor]: [f64; 3]) -> Self {
+        PlaceAccuracy {
+            building,
+            floor,
+            corridor,
+        }
+    }
+}
+
+/// Runs `indoorloc train --task place`.
+fn run_place(args: &TrainArgs) -> Result<()> {
+    anyhow::ensure!(
+        args.window.is_none(),
+        "--window trains a sequence model of poses; a place classifier takes single frames"
+    );
+    let start = Instant::now();
+    let cfg = place_config(args)?;
+    let lines = !args.json;
+    let mut pb: Option<ProgressBar> = None;
+    let summary = learn::place::train_place(&cfg, &mut |event| match event {
+        PlaceEvent::Loaded {
+            train,
+            val,
+            classes,
+            seconds,
+        } => {
+            if lines {
+                eprintln!(
+                    "data: {train} train / {val} val frames, classes {classes:?} (building, floor, place), {seconds:.1} s"
+                );
+            }
+        }
+        PlaceEvent::Resumed { epoch } => eprintln!("resuming after epoch {epoch}"),
+        PlaceEvent::Step {
+            epoch,
+            step,
+            steps,
+            loss,
+        } => {
+            let p = pb.get_or_insert_with(|| bar(*steps as u64, &format!("epoch {epoch}")));
+            p.set_position(*step as u64);
+            p.set_message(format!("epoch {epoch} loss {loss:.3}"));
+        }
+        PlaceEvent::Epoch(m) => {
+            if let Some(p) = pb.take() {
+                p.finish_and_clear();
+            }
+            if lines {
+                let [b, f, c] = m.val_accuracy.map(|a| 100.0 * a);
+                eprintln!(
+                    "epoch {:>3}  loss {:.4}  val accuracy building {b:.1} %  floor {f:.1} %  place {c:.1} %  {:.1} s",
+                    m.epoch, m.train_loss, m.seconds
+                );
+            }
+        }
+        PlaceEvent::EarlyStop { epoch, best_epoch } => {
+            if lines {
+                eprintln!("early stop after epoch {epoch}; keeping epoch {best_epoch}");
+            }
+        }
+    });
+    if let Some(p) = pb {
+        p.finish_and_clear();
+    }
+    let summary = summary?;
+    let out = PlaceOutput {
+        out: summary.out.clone(),
+        epochs: summary.epochs,
+        best_epoch: summary.best_epoch,
+        split: args.place_split.clone(),
+        val_accuracy: summary.val_accuracy.into(),
+        train_frames: summary.train_frames,
+        val_frames: summary.val_frames,
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    if args.json {
+        print_json(&out)
+    } else {
+        let a = &out.val_accuracy;
+        print_text(&format!(
+            "model     {}\nepochs    {} (best {})\nval       building {:.1} %, floor {:.1} %, place {:.1} % ({} split)\nframes    {} train, {} val\ntime      {:.1} s\n",
+            out.out.display(),
+            out.epochs,
+            out.best_epoch,
+            100.0 * a.building,
+            100.0 * a.floor,
+            100.0 * a.corridor,
+            out.split,
+            out.train_frames,
+            out.val_frames,
+            out.seconds
+        ))
+    }
+}
+
 /// Runs `indoorloc train`.
 pub fn run(args: &TrainArgs) -> Result<()> {
+    if args.task == Some(TaskArg::Place) {
+        return run_place(args);
+    }
     let start = Instant::now();
     let summary = train_with_progress(&args.config(), !args.json)?;
     let sequence = match args.seq_config() {

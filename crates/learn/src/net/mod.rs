@@ -261,7 +261,17 @@ pub enum Backbone {
 }
 
 impl Backbone {
-    fn fold(self) -> Self {
+    /// A freshly initialised backbone of `arch` for `channels` input channels.
+    pub(crate) fn new(arch: Arch, channels: usize, device: &Device) -> Backbone {
+        match arch {
+            Arch::Small => Backbone::Small(SmallNet::new(channels, device)),
+            Arch::Resnet18 => Backbone::ResNet(ResNet::new(channels, RESNET18_BLOCKS, device)),
+            Arch::Resnet34 => Backbone::ResNet(ResNet::new(channels, RESNET34_BLOCKS, device)),
+            Arch::Googlenet => Backbone::Inception(InceptionNet::new(channels, device)),
+        }
+    }
+
+    pub(crate) fn fold(self) -> Self {
         match self {
             Backbone::Small(n) => Backbone::Small(n.fold()),
             Backbone::ResNet(n) => Backbone::ResNet(n.fold()),
@@ -269,7 +279,7 @@ impl Backbone {
         }
     }
 
-    fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+    pub(crate) fn forward(&self, x: Tensor<4>) -> Tensor<4> {
         match self {
             Backbone::Small(n) => n.forward(x),
             Backbone::ResNet(n) => n.forward(x),
@@ -289,12 +299,7 @@ pub struct Branch {
 
 impl Branch {
     fn new(cfg: &NetConfig, device: &Device) -> Branch {
-        let backbone = match cfg.arch {
-            Arch::Small => Backbone::Small(SmallNet::new(cfg.channels, device)),
-            Arch::Resnet18 => Backbone::ResNet(ResNet::new(cfg.channels, RESNET18_BLOCKS, device)),
-            Arch::Resnet34 => Backbone::ResNet(ResNet::new(cfg.channels, RESNET34_BLOCKS, device)),
-            Arch::Googlenet => Backbone::Inception(InceptionNet::new(cfg.channels, device)),
-        };
+        let backbone = Backbone::new(cfg.arch, cfg.channels, device);
         let features = cfg.arch.features();
         let hidden = cfg.head.hidden;
         Branch {

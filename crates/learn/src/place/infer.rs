@@ -1,0 +1,146 @@
+//! Place inference: [`PlaceLocalizer`] turns images into the most likely building, floor and
+//! corridor with their probabilities (softmax of each head).
+
+use std::path::Path;
+
+use burn::module::Module;
+use burn::tensor::activation::softmax;
+use burn::tensor::{Device, Tensor, TensorData};
+use image::DynamicImage;
+use imgproc::view::{View, ViewSpec};
+
+use super::{PLACE_BPK, PLACE_TOML, PlaceMeta, PlaceNet};
+use crate::checkpoint;
+use crate::infer::CHUNK;
+use crate::{LearnError, Result};
+
+/// The most likely class of each level of one image, with its probability.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlacePrediction {
+    /// Building name and probability.
+    pub building: (String, f64),
+    /// Floor (`building/floor`) and probability.
+    pub floor: (String, f64),
+    /// Place (`building/floor/corridor/direction`) and probability.
+    pub corridor: (String, f64),
+    /// Class indices per level (into the model's class lists).
+    pub indices: [usize; 3],
+}
+
+/// A loaded place model.
+#[derive(Debug)]
+pub struct PlaceLocalizer {
+    net: PlaceNet,
+    meta: PlaceMeta,
+    spec: ViewSpec,
+    device: Device,
+}
+
+impl PlaceLocalizer {
+    /// Loads `dir/place.toml` and `dir/place.bpk` on the CPU.
+    pub fn load(dir: &Path) -> Result<PlaceLocalizer> {
+        let meta = PlaceMeta::read(dir)?;
+        let device = Device::flex();
+        let bytes = checkpoint::read_checked(dir, PLACE_BPK, &meta.weights_hash)?;
+        let net = checkpoint::load_into(meta.net.init(&device, 0)?, bytes, &dir.join(PLACE_BPK))?;
+        let spec = ViewSpec::resolve(&meta.view)
+            .map_err(|e| LearnError::corrupt(dir.join(PLACE_TOML), e.to_string()))?;
+        Ok(PlaceLocalizer {
+            net: net.valid().fold_batchnorm(),
+            meta,
+            spec,
+            device,
+        })
+    }
+
+    /// The checkpoint's description.
+    pub fn meta(&self) -> &PlaceMeta {
+        &self.meta
+    }
+
+    /// The network's view of an image.
+    pub fn view(&self, img: &DynamicImage) -> Result<View> {
+        self.spec
+            .apply(img, 0)
+            .map_err(|e| LearnError::Input(e.to_string()))
+    }
+
+    /// The place of one image.
+    pub fn predict(&self, img: &DynamicImage) -> Result<PlacePrediction> {
+        self.predict_batch(std::slice::from_ref(&self.view(img)?))?
+            .pop()
+            .ok_or_else(|| LearnError::Input("no prediction for the image".into()))
+    }
+
+    /// Places of many views made with this model's view.
+    pub fn predict_batch(&self, views: &[View]) -> Result<Vec<PlacePrediction>> {
+        let [c, h, w] = self.meta.input;
+        let mut inputs = Vec::with_capacity(views.len() * c * h * w);
+        for (i, v) in views.iter().enumerate() {
+            if [v.channels as usize, v.height as usize, v.width as usize] != self.meta.input {
+                return Err(LearnError::Input(format!(
+                    "view {i} is {}x{}x{}, the model takes {c}x{h}x{w} (view '{}')",
+                    v.channels, v.height, v.width, self.meta.view
+                )));
+            }
+            inputs.extend_from_slice(&v.data);
+        }
+        let levels = self.meta.classes.levels();
+        Ok(classify(&self.net, &inputs, self.meta.input, &self.device)?
+            .into_iter()
+            .map(|p| {
+                let named = |level: usize| {
+                    let (k, prob) = p[level];
+                    (levels[level][k].clone(), prob as f64)
+                };
+                PlacePrediction {
+                    building: named(0),
+                    floor: named(1),
+                    corridor: named(2),
+                    indices: p.map(|(k, _)| k),
+                }
+            })
+            .collect())
+    }
+}
+
+/// The most likely class and its probability at each level, for packed inputs `[N, C, H, W]`
+/// run in chunks of [`CHUNK`].
+pub(super) fn classify(
+    net: &PlaceNet,
+    inputs: &[f32],
+    [c, h, w]: [usize; 3],
+    device: &Device,
+) -> Result<Vec<[(usize, f32); 3]>> {
+    let per = c * h * w;
+    let n = inputs.len() / per.max(1);
+    let mut out = vec![[(0usize, 0.0f32); 3]; n];
+    for start in (0..n).step_by(CHUNK) {
+        let b = CHUNK.min(n - start);
+        let x = Tensor::<4>::from_data(
+            TensorData::new(
+                inputs[start * per..(start + b) * per].to_vec(),
+                [b, c, h, w],
+            ),
+            device,
+        );
+        for (level, logits) in net.logits(net.features(x)).into_iter().enumerate() {
+            let [_, k] = logits.dims();
+            let p = softmax(logits, 1)
+                .into_data()
+                .try_to_vec::<f32>()
+                .map_err(|e| LearnError::Input(format!("cannot read the outputs: {e:?}")))?;
+            for (row, probs) in p.chunks_exact(k).enumerate() {
+                let best = probs
+                    .iter()
+                    .enumerate()
+                    .fold(
+                        (0, f32::MIN),
+                        |acc, (i, &q)| if q > acc.1 { (i, q) } else { acc },
+                    );
+                out[start + row][level] = best;
+            }
+        }
+    }
+    Ok(out)
+}

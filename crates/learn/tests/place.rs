@@ -1,0 +1,137 @@
+//! The place classifier on the tiny procedural dataset with place labels made from the pose
+//! (which the image colour encodes): training, the stored accuracy, resuming, bad input.
+
+mod common;
+
+use std::path::Path;
+
+use data::native::{Label, NativeDataset, write_metadata};
+use learn::place::{PlaceConfig, PlaceEvent, PlaceLocalizer, PlaceSplit, train_place};
+use learn::{Arch, LearnError};
+
+/// Labels from the pose: building by x, corridor by the sign of y, direction by heading.
+fn add_labels(root: &Path) {
+    let ds = NativeDataset::open(root).unwrap();
+    let labels: Vec<Label> = ds
+        .trajectory
+        .frames
+        .iter()
+        .map(|f| {
+            let [x, y, _] = f.pose.position();
+            Label {
+                frame: f.name.parse().unwrap(),
+                building: if x < 2.4 { "B0" } else { "B1" }.into(),
+                floor: "F0".into(),
+                corridor: if y < 0.0 { "C0" } else { "C1" }.into(),
+                direction: "fwd".into(),
+            }
+        })
+        .collect();
+    write_metadata(
+        root,
+        &ds.info,
+        &ds.trajectory,
+        Some(&labels),
+        None,
+        &ds.splits,
+    )
+    .unwrap();
+}
+
+fn config(data: &Path, out: &Path, epochs: usize) -> PlaceConfig {
+    let mut cfg = PlaceConfig::new(data, out);
+    cfg.arch = Arch::Small;
+    cfg.view = Some("resize=32x24".into());
+    cfg.epochs = epochs;
+    cfg.batch_size = 8;
+    cfg.lr = 3e-3;
+    cfg.patience = None;
+    cfg.seed = 2;
+    cfg
+}
+
+#[test]
+fn learns_places_and_inference_reproduces_the_stored_accuracy() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (data, out) = (tmp.path().join("data"), tmp.path().join("model"));
+    common::make_dataset(&data, 6, 24);
+    add_labels(&data);
+    let mut events = Vec::new();
+    let summary = train_place(&config(&data, &out, 6), &mut |e| events.push(e.clone())).unwrap();
+    assert!(matches!(
+        events[0],
+        PlaceEvent::Loaded {
+            train: 48,
+            val: 24,
+            classes: [2, 2, 3],
+            ..
+        }
+    ));
+    // floors are named within their building (B0/F0, B1/F0), places within their floor
+    let acc = summary.val_accuracy;
+    assert!(
+        acc[0] >= 0.8 && acc[1] >= 0.8 && acc[2] >= 0.6,
+        "accuracy {acc:?}"
+    );
+
+    // the loaded model gives the stored accuracy on the validation frames
+    let loc = PlaceLocalizer::load(&out).unwrap();
+    let ds = NativeDataset::open(&data).unwrap();
+    let val = ds.split_frames(data::native::SplitName::Val);
+    let mut right = [0usize; 3];
+    for &i in &val {
+        let number = ds.frame_number(i).unwrap();
+        let img = image::open(ds.frame_path(number)).unwrap();
+        let p = loc.predict(&img).unwrap();
+        assert!((0.0..=1.0).contains(&p.corridor.1));
+        let want = learn::place::class_names(ds.label(number).unwrap());
+        for (level, got) in [&p.building.0, &p.floor.0, &p.corridor.0]
+            .iter()
+            .enumerate()
+        {
+            right[level] += usize::from(**got == want[level]);
+        }
+    }
+    let measured = right.map(|r| r as f64 / val.len() as f64);
+    assert_eq!(measured, acc);
+
+    // resuming to more epochs continues; other settings are refused by name
+    let mut more = config(&data, &out, 7);
+    more.resume = true;
+    let mut events = Vec::new();
+    let summary = train_place(&more, &mut |e| events.push(e.clone())).unwrap();
+    assert!(events.contains(&PlaceEvent::Resumed { epoch: 6 }));
+    assert_eq!(summary.epochs, 7);
+    let mut other = more.clone();
+    other.epochs = 8;
+    other.lr = 1e-2;
+    let err = train_place(&other, &mut |_| {}).unwrap_err();
+    assert!(
+        matches!(&err, LearnError::Mismatch { path, .. } if path.ends_with("place.toml")),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_random_split_mixes_sequences_and_unlabelled_data_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    common::make_dataset(&data, 6, 10);
+    // no labels.csv yet
+    let err = train_place(&config(&data, &tmp.path().join("m0"), 1), &mut |_| {}).unwrap_err();
+    assert!(err.to_string().contains("labels.csv"), "{err}");
+    add_labels(&data);
+    let mut cfg = config(&data, &tmp.path().join("m1"), 1);
+    cfg.split = PlaceSplit::Random;
+    let mut events = Vec::new();
+    train_place(&cfg, &mut |e| events.push(e.clone())).unwrap();
+    // 30 frames pooled, a fifth drawn for validation
+    assert!(matches!(
+        events[0],
+        PlaceEvent::Loaded {
+            train: 24,
+            val: 6,
+            ..
+        }
+    ));
+}
