@@ -292,5 +292,52 @@ fn a_place_classifier_trains_from_the_command_line() -> TestResult {
         "train", "--data", ds_s, "--out", model_s, "--task", "place", "--window", "4",
     ])?;
     assert_eq!(bad.status.code(), Some(2));
+
+    // localize: places alone from a place-only folder, then beside the pose once a pose model
+    // shares the folder
+    let first_line = |extra: &[&str]| -> TestResult<serde_json::Value> {
+        let mut args = vec![
+            "localize", "--model", model_s, ds_s, "--split", "val", "--mc", "0",
+        ];
+        args.extend_from_slice(extra);
+        let out = indoorloc(&args)?;
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let line = out
+            .stdout
+            .split(|&b| b == b'\n')
+            .next()
+            .ok_or("no output")?;
+        Ok(serde_json::from_slice(line)?)
+    };
+    let line = first_line(&[])?;
+    assert!(line["position"].is_null(), "{line}");
+    for key in ["building", "floor", "corridor", "direction", "p"] {
+        assert!(!line["place"][key].is_null(), "{key} missing in {line}");
+    }
+    let tum = indoorloc(&["localize", "--model", model_s, ds_s, "--format", "tum"])?;
+    assert_eq!(tum.status.code(), Some(2));
+    json_of(&indoorloc(&[
+        "train",
+        "--data",
+        ds_s,
+        "--out",
+        model_s,
+        "--view",
+        "resize=32x24,norm=pm1",
+        "--batch",
+        "8",
+        "--epochs",
+        "1",
+        "--json",
+    ])?)?;
+    let line = first_line(&[])?;
+    assert!(
+        line["position"].is_array() && line["place"]["p"].is_number(),
+        "{line}"
+    );
     Ok(())
 }

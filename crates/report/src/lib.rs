@@ -46,6 +46,7 @@
 //! ```
 #![deny(missing_docs)]
 
+mod confusion;
 mod decimate;
 mod draw;
 mod errmap;
@@ -60,6 +61,7 @@ mod scatter;
 mod sheet;
 mod table;
 
+pub use confusion::confusion_png;
 pub use errmap::{ErrorMap, error_map};
 pub use error::{ReportError, Result};
 pub use eval::{pose_eval_report, pose_summary_table};

@@ -8,6 +8,7 @@ use data::formats::{self, Format};
 use data::frames::{self, FrameSource};
 use data::native::{NativeDataset, SplitName};
 use data::{PoseFrame, cambridge, sevenscenes};
+use learn::place::{PlaceLocalizer, PlaceMeta, PlacePrediction};
 use learn::seq::{SeqLocalizer, SeqMeta, SeqTracker};
 use learn::{Estimate, Localizer};
 use serde::Serialize;
@@ -89,6 +90,19 @@ pub struct PoseLine {
     /// Time of the frame where the source has one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub t: Option<f64>,
+    /// The pose, when the model folder holds a pose model.
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub pose: Option<PoseFields>,
+    /// The place, when the model folder holds a place model.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub place: Option<PlaceField>,
+    /// Time to localise this frame (view + network), milliseconds.
+    pub latency_ms: f64,
+}
+
+/// The pose part of a [`PoseLine`].
+#[derive(Debug, Serialize)]
+pub struct PoseFields {
     /// Camera centre in the world, metres.
     pub position: [f64; 3],
     /// Camera-to-world rotation, w, x, y, z.
@@ -101,47 +115,67 @@ pub struct PoseLine {
     pub sigma_pos_m: f64,
     /// RMS rotation of the MC passes about their mean, degrees.
     pub sigma_rot_deg: f64,
-    /// Time to localise this frame (view + network), milliseconds.
-    pub latency_ms: f64,
 }
 
-impl PoseLine {
-    /// The line for `est` of a frame.
-    pub fn new(
-        frame: String,
-        seq: Option<String>,
-        t: Option<f64>,
-        est: &Estimate,
-        latency_ms: f64,
-    ) -> Self {
-        PoseLine {
-            frame,
-            seq,
-            t,
+impl PoseFields {
+    /// The fields of `est`.
+    pub fn of(est: &Estimate) -> Self {
+        PoseFields {
             position: est.pose.position(),
             quaternion: est.pose.quat_wxyz(),
             pose3: est.pose3.map(|p| [p.x, p.y, p.heading]),
             sigma_pos_m: est.sigma_pos_m,
             sigma_rot_deg: est.sigma_rot_deg,
-            latency_ms,
         }
     }
+}
 
+/// The place of a frame, as DESIGN.md's `localize` contract names it.
+#[derive(Debug, Serialize)]
+pub struct PlaceField {
+    /// Building name.
+    pub building: String,
+    /// Floor name.
+    pub floor: String,
+    /// Corridor name (`none` outside corridors).
+    pub corridor: String,
+    /// Walking direction class.
+    pub direction: String,
+    /// Probability of this place (corridor and direction) under the model.
+    pub p: f64,
+}
+
+impl PlaceField {
+    /// The field of a prediction.
+    pub fn of(p: &PlacePrediction) -> Self {
+        let [building, floor, corridor, direction] = p.parts();
+        PlaceField {
+            building,
+            floor,
+            corridor,
+            direction,
+            p: p.corridor.1,
+        }
+    }
+}
+
+impl PoseLine {
     fn write(&self, format: OutFormat, index: usize, w: &mut dyn Write) -> Result<()> {
-        match format {
-            OutFormat::Jsonl => {
+        match (format, &self.pose) {
+            (OutFormat::Jsonl, _) => {
                 serde_json::to_writer(&mut *w, self)?;
                 writeln!(w)?;
             }
-            OutFormat::Tum => {
-                let [x, y, z] = self.position;
-                let [qw, qx, qy, qz] = self.quaternion;
+            (OutFormat::Tum, Some(pose)) => {
+                let [x, y, z] = pose.position;
+                let [qw, qx, qy, qz] = pose.quaternion;
                 let t = self.t.unwrap_or(index as f64);
                 writeln!(
                     w,
                     "{t:.6} {x:.6} {y:.6} {z:.6} {qx:.9} {qy:.9} {qz:.9} {qw:.9}"
                 )?;
             }
+            (OutFormat::Tum, None) => bail!("TUM lines need poses; this model gives places only"),
         }
         Ok(())
     }
@@ -159,14 +193,27 @@ struct Item {
 
 /// Runs `indoorloc localize`.
 pub fn run(args: &LocalizeArgs) -> Result<()> {
-    let sequence = if SeqMeta::exists(&args.model) && !args.single {
+    let places = if PlaceMeta::exists(&args.model) {
+        Some(PlaceLocalizer::load(&args.model)?)
+    } else {
+        None
+    };
+    let place_only = places.is_some() && !args.model.join(learn::checkpoint::MODEL_TOML).is_file();
+    if place_only && args.format == OutFormat::Tum {
+        bail!(
+            "{}: holds a place model only; TUM lines need poses (use --format jsonl)",
+            args.model.display()
+        );
+    }
+    let sequence = if SeqMeta::exists(&args.model) && !args.single && !place_only {
         Some(SeqLocalizer::load(&args.model)?)
     } else {
         None
     };
     let mut estimator = match &sequence {
-        Some(seq) => Estimator::Sequence(seq, seq.tracker(args.mc)),
-        None => Estimator::Single(Localizer::load(&args.model)?),
+        Some(seq) => Some(Estimator::Sequence(seq, seq.tracker(args.mc))),
+        None if place_only => None,
+        None => Some(Estimator::Single(Localizer::load(&args.model)?)),
     };
     let cuts = match &args.cuts {
         Some(path) => data::cuts::read(path)?,
@@ -195,7 +242,8 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
         };
         let t0 = Instant::now();
         let est = match &mut estimator {
-            Estimator::Sequence(seq, tracker) => {
+            None => None,
+            Some(Estimator::Sequence(seq, tracker)) => {
                 let starts_over = item.new_scene
                     || cuts.binary_search(&(index as u64)).is_ok()
                     || last_seq.as_ref().is_some_and(|s| *s != item.seq);
@@ -204,17 +252,26 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
                 }
                 last_seq = Some(item.seq.clone());
                 let view = seq.base().view(&img)?;
-                tracker.step(&view)
+                Some(tracker.step(&view))
             }
-            Estimator::Single(loc) => loc.predict(&img, args.mc),
+            Some(Estimator::Single(loc)) => Some(loc.predict(&img, args.mc)),
         }
+        .transpose()
         .with_context(|| format!("frame {}", item.name))?;
-        let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
-        PoseLine::new(item.name, item.seq, item.t, &est, latency_ms).write(
-            args.format,
-            index,
-            w,
-        )?;
+        let place = places
+            .as_ref()
+            .map(|p| p.predict(&img))
+            .transpose()
+            .with_context(|| format!("frame {}", item.name))?;
+        let line = PoseLine {
+            frame: item.name,
+            seq: item.seq,
+            t: item.t,
+            pose: est.as_ref().map(PoseFields::of),
+            place: place.as_ref().map(PlaceField::of),
+            latency_ms: t0.elapsed().as_secs_f64() * 1e3,
+        };
+        line.write(args.format, index, w)?;
         done += 1;
     }
     if let Some(path) = &args.out {

@@ -27,6 +27,22 @@ pub struct PlacePrediction {
     pub indices: [usize; 3],
 }
 
+impl PlacePrediction {
+    /// Building, floor, corridor and direction names of the predicted place.
+    pub fn parts(&self) -> [String; 4] {
+        let mut parts = self.corridor.0.rsplitn(3, '/');
+        let direction = parts.next().unwrap_or_default().to_string();
+        let corridor = parts.next().unwrap_or_default().to_string();
+        let floor = self
+            .floor
+            .0
+            .strip_prefix(&format!("{}/", self.building.0))
+            .unwrap_or(&self.floor.0)
+            .to_string();
+        [self.building.0.clone(), floor, corridor, direction]
+    }
+}
+
 /// A loaded place model.
 #[derive(Debug)]
 pub struct PlaceLocalizer {

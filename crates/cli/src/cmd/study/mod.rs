@@ -2,6 +2,7 @@
 //! `DIR/report.html` with `--json` rows.
 
 pub(crate) mod cuts;
+mod place_split;
 mod render_types;
 mod sequence;
 
@@ -29,6 +30,10 @@ enum Study {
     /// Train on each synthetic render mode (shaded, textured, edges, gradmag), test on a
     /// differently textured photo-like walk: synthetic-to-real transfer, as BIM-PoseNet.
     RenderTypes(render_types::RenderTypesArgs),
+    /// Place recognition (building, floor, corridor and direction): a random frame split
+    /// against a split by recording session, with held-out walks under another appearance,
+    /// per-class precision / recall and confusion matrices.
+    PlaceSplit(place_split::PlaceSplitArgs),
 }
 
 /// Runs `indoorloc study`.
@@ -37,6 +42,7 @@ pub fn run(args: &StudyArgs) -> Result<()> {
         Study::Cuts(a) => cuts::run(a),
         Study::Sequence(a) => sequence::run(a),
         Study::RenderTypes(a) => render_types::run(a),
+        Study::PlaceSplit(a) => place_split::run(a),
     }
 }
 

@@ -1,0 +1,411 @@
+//! `indoorloc study place-split`: how much a random frame split flatters a place classifier.
+//!
+//! 1. Walks through the whole default building (every building, floor and corridor the walk
+//!    graph reaches), rendered with place labels (`DIR/data`), and held-out walks under another
+//!    appearance (`--heldout-variant`, other walks: `DIR/heldout`).
+//! 2. The place classifier trained twice on the same frames: validation frames drawn at random
+//!    (their neighbours a few centimetres away are in training) and validation by recording
+//!    session (whole walks held out).
+//! 3. Each model's validation accuracy per level, its accuracy on the held-out walks, model size
+//!    and one-thread inference time; per-class precision and recall and confusion matrices of
+//!    the session model on the held-out walks (`DIR/confusion-<level>.png`, also in the report).
+
+use crate::output::{print_json, print_text};
+use crate::progress::bar;
+use anyhow::{Context, Result};
+use clap::Args;
+use data::native::NativeDataset;
+use learn::place::{
+    LEVELS, PlaceConfig, PlaceLocalizer, PlacePrediction, PlaceSplit, class_names, train_place,
+};
+use report::{HtmlReport, Table};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use synth::dataset::{SynthConfig, WorldSource};
+
+/// Arguments of `indoorloc study place-split`.
+#[derive(Args, Debug)]
+pub struct PlaceSplitArgs {
+    /// Folder for the datasets, the two models, the confusion matrices and `report.html`.
+    #[arg(
+        long,
+        value_name = "DIR",
+        default_value = "indoorloc-study-place-split"
+    )]
+    out: PathBuf,
+    /// Fewer frames, a smaller view and fewer epochs (minutes).
+    #[arg(long)]
+    quick: bool,
+    /// Override the number of training frames (rendered as walks of about 100 frames).
+    #[arg(long)]
+    frames: Option<usize>,
+    /// Override the number of held-out frames.
+    #[arg(long)]
+    heldout_frames: Option<usize>,
+    /// Override the view (default: place240; with --quick a 96x96 one).
+    #[arg(long)]
+    view: Option<String>,
+    /// Override the number of epochs (default 10; 5 with --quick).
+    #[arg(long)]
+    epochs: Option<usize>,
+    /// Appearance variant of the held-out walks.
+    #[arg(long, default_value = "some-lights-off")]
+    heldout_variant: String,
+    /// Seed of the building, walks and training.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Print one JSON document instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// One row of the table.
+#[derive(Debug, Serialize)]
+struct Row {
+    /// `random` or `session`.
+    split: String,
+    /// Validation accuracy per level under this split.
+    building_acc: f64,
+    floor_acc: f64,
+    corridor_acc: f64,
+    /// Accuracy on the held-out walks (other walks, other appearance).
+    heldout_building_acc: f64,
+    heldout_floor_acc: f64,
+    heldout_corridor_acc: f64,
+    /// Size of the weights file, megabytes.
+    model_mb: f64,
+    /// Median time per image on one thread, milliseconds (view made beforehand).
+    infer_ms: f64,
+}
+
+/// Precision and recall of one class of the session model on the held-out walks.
+#[derive(Debug, Serialize)]
+struct ClassRow {
+    level: &'static str,
+    class: String,
+    frames: usize,
+    precision: f64,
+    recall: f64,
+}
+
+/// What `study place-split` prints.
+#[derive(Debug, Serialize)]
+struct StudyOutput {
+    rows: Vec<Row>,
+    classes: Vec<ClassRow>,
+    train_frames: usize,
+    heldout_frames: usize,
+    heldout_variant: String,
+    confusion: Vec<PathBuf>,
+    report: PathBuf,
+}
+
+/// Runs `indoorloc study place-split`.
+pub fn run(args: &PlaceSplitArgs) -> Result<()> {
+    let say = |text: &str| {
+        if !args.json {
+            eprintln!("{text}");
+        }
+    };
+    let frames = args.frames.unwrap_or(if args.quick { 2400 } else { 8000 });
+    let heldout_frames = args
+        .heldout_frames
+        .unwrap_or(if args.quick { 600 } else { 1200 });
+    let variant: synth::Variant = args
+        .heldout_variant
+        .parse()
+        .map_err(|e| anyhow::anyhow!("--heldout-variant '{}': {e}", args.heldout_variant))?;
+    let data = args.out.join("data");
+    let heldout = args.out.join("heldout");
+    say(&format!(
+        "1/4 rendering {frames} labelled frames and {heldout_frames} held-out ({})",
+        args.heldout_variant
+    ));
+    let base = SynthConfig {
+        world: WorldSource::Default { seed: args.seed },
+        frames,
+        sequences: frames.div_ceil(100).max(5),
+        width: 160,
+        height: 120,
+        seed: args.seed,
+        depth: false,
+        planes: false,
+        ..SynthConfig::default()
+    };
+    render(&base, &data)?;
+    render(
+        &SynthConfig {
+            frames: heldout_frames,
+            sequences: heldout_frames.div_ceil(100).max(1),
+            variant,
+            seed: args.seed + 1000,
+            ..base.clone()
+        },
+        &heldout,
+    )?;
+
+    let ds = NativeDataset::open(&heldout)?;
+    let views_img: Vec<image::DynamicImage> = (0..ds.trajectory.len())
+        .map(|i| {
+            let path = ds.frame_path(ds.frame_number(i).unwrap_or(i as u64));
+            data::frames::decode_image(&path).with_context(|| path.display().to_string())
+        })
+        .collect::<Result<_>>()?;
+    let truth: Vec<[String; 3]> = (0..ds.trajectory.len())
+        .map(|i| {
+            let frame = ds.frame_number(i).unwrap_or(i as u64);
+            ds.label(frame)
+                .map(class_names)
+                .with_context(|| format!("{}: no label for frame {frame}", heldout.display()))
+        })
+        .collect::<Result<_>>()?;
+
+    let mut rows = Vec::new();
+    let mut session_predictions = None;
+    for (k, split) in [PlaceSplit::Random, PlaceSplit::Session]
+        .into_iter()
+        .enumerate()
+    {
+        let name = if split == PlaceSplit::Random {
+            "random"
+        } else {
+            "session"
+        };
+        say(&format!("{}/4 training with a {name} split", k + 2));
+        let model = args.out.join(format!("model-{name}"));
+        let mut cfg = PlaceConfig::new(&data, &model);
+        cfg.view = Some(args.view.clone().unwrap_or_else(|| {
+            if args.quick {
+                "resize=96x96,norm=imagenet"
+            } else {
+                "place240"
+            }
+            .into()
+        }));
+        cfg.epochs = args.epochs.unwrap_or(if args.quick { 5 } else { 10 });
+        cfg.split = split;
+        cfg.seed = args.seed;
+        cfg.resume = true;
+        let pb = bar(cfg.epochs as u64, &format!("{name} split"));
+        let summary = train_place(&cfg, &mut |e| {
+            if let learn::place::PlaceEvent::Epoch(m) = e {
+                pb.set_position(m.epoch as u64);
+            }
+        })?;
+        pb.finish_and_clear();
+        let loc = PlaceLocalizer::load(&model)?;
+        let views = views_img
+            .iter()
+            .map(|img| loc.view(img))
+            .collect::<learn::Result<Vec<_>>>()?;
+        let predicted = loc.predict_batch(&views)?;
+        let heldout_acc = heldout_accuracy(&predicted, &truth);
+        let infer_ms = one_thread_ms(&loc, &views)?;
+        let model_mb = std::fs::metadata(model.join(learn::place::PLACE_BPK))?.len() as f64 / 1e6;
+        let [b, f, c] = summary.val_accuracy;
+        let [hb, hf, hc] = heldout_acc;
+        rows.push(Row {
+            split: name.into(),
+            building_acc: b,
+            floor_acc: f,
+            corridor_acc: c,
+            heldout_building_acc: hb,
+            heldout_floor_acc: hf,
+            heldout_corridor_acc: hc,
+            model_mb,
+            infer_ms,
+        });
+        if split == PlaceSplit::Session {
+            session_predictions = Some((loc, predicted));
+        }
+    }
+    say("4/4 per-class figures, confusion matrices and the report");
+    let (loc, predicted) = session_predictions.context("the session model was not trained")?;
+    let mut page = HtmlReport::new("Place recognition: random against session split");
+    page.paragraph(format!(
+        "A place classifier (building, floor, corridor and walking direction) trained on {frames} \
+         frames of walks through the default building, once with validation frames drawn at \
+         random and once with whole walks held out. The held-out columns are other walks under \
+         the '{}' appearance. A random split puts near-twins of the validation frames in \
+         training, so its validation accuracy says little about new visits.",
+        args.heldout_variant
+    ));
+    page.table(&table(&rows));
+    let mut classes = Vec::new();
+    let mut confusion = Vec::new();
+    for (level, name) in LEVELS.iter().enumerate() {
+        let names = loc.meta().classes.levels()[level];
+        let (counts, class_rows) = per_class(name, names, &predicted, &truth, level);
+        let png = report::confusion_png(
+            &format!("{name}: session model on the held-out walks"),
+            names,
+            &counts,
+        )?;
+        let path = args.out.join(format!("confusion-{name}.png"));
+        data::io::write_atomic(&path, |w| w.write_all(&png))?;
+        page.png(
+            &png,
+            format!("Confusion matrix, {name} (rows: true class)."),
+        );
+        confusion.push(path);
+        classes.extend(class_rows);
+    }
+    page.table(&class_table(&classes));
+    let report = args.out.join("report.html");
+    page.write(&report)?;
+    let out = StudyOutput {
+        rows,
+        classes,
+        train_frames: frames,
+        heldout_frames: truth.len(),
+        heldout_variant: args.heldout_variant.clone(),
+        confusion,
+        report,
+    };
+    if args.json {
+        print_json(&out)
+    } else {
+        print_text(&format!(
+            "{}\n{} training frames, {} held-out ({}); report: {}\n",
+            table(&out.rows).to_text(),
+            out.train_frames,
+            out.heldout_frames,
+            out.heldout_variant,
+            out.report.display()
+        ))
+    }
+}
+
+/// Renders `cfg` into `dir` unless an earlier run left the same dataset there.
+fn render(cfg: &SynthConfig, dir: &Path) -> Result<()> {
+    let key = format!("{cfg:?}");
+    let key_path = dir.join("study-plan.txt");
+    if std::fs::read_to_string(&key_path).is_ok_and(|k| k == key)
+        && dir.join(data::native::POSES_CSV).is_file()
+    {
+        return Ok(());
+    }
+    let pb = bar(cfg.frames as u64, "render");
+    synth::dataset::run(cfg, dir, &|n| pb.set_position(n as u64))?;
+    pb.finish_and_clear();
+    data::io::write_atomic(&key_path, |w| w.write_all(key.as_bytes()))?;
+    Ok(())
+}
+
+/// Accuracy per level of predictions against true class names.
+fn heldout_accuracy(predicted: &[PlacePrediction], truth: &[[String; 3]]) -> [f64; 3] {
+    let mut right = [0usize; 3];
+    for (p, t) in predicted.iter().zip(truth) {
+        for (level, got) in [&p.building.0, &p.floor.0, &p.corridor.0]
+            .into_iter()
+            .enumerate()
+        {
+            right[level] += usize::from(*got == t[level]);
+        }
+    }
+    right.map(|r| r as f64 / truth.len().max(1) as f64)
+}
+
+/// Median milliseconds per image of the network on one thread.
+fn one_thread_ms(loc: &PlaceLocalizer, views: &[imgproc::view::View]) -> Result<f64> {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let timed = &views[..views.len().min(50)];
+    pool.install(|| -> Result<f64> {
+        if let Some(first) = timed.first() {
+            loc.predict_batch(std::slice::from_ref(first))?;
+        }
+        let mut ms = Vec::with_capacity(timed.len());
+        for v in timed {
+            let t = Instant::now();
+            loc.predict_batch(std::slice::from_ref(v))?;
+            ms.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(crate::output::median(&ms))
+    })
+}
+
+/// The confusion counts `[true][predicted]` over the model's classes of `level` (frames whose
+/// true class the model does not know are left out of the matrix) and each class's precision
+/// and recall.
+fn per_class(
+    level_name: &'static str,
+    names: &[String],
+    predicted: &[PlacePrediction],
+    truth: &[[String; 3]],
+    level: usize,
+) -> (Vec<Vec<usize>>, Vec<ClassRow>) {
+    let n = names.len();
+    let mut counts = vec![vec![0usize; n]; n];
+    for (p, t) in predicted.iter().zip(truth) {
+        if let Ok(row) = names.binary_search(&t[level]) {
+            counts[row][p.indices[level]] += 1;
+        }
+    }
+    let rows = (0..n)
+        .filter_map(|k| {
+            let frames: usize = counts[k].iter().sum();
+            let called: usize = counts.iter().map(|r| r[k]).sum();
+            (frames > 0 || called > 0).then(|| ClassRow {
+                level: level_name,
+                class: names[k].clone(),
+                frames,
+                precision: counts[k][k] as f64 / called.max(1) as f64,
+                recall: counts[k][k] as f64 / frames.max(1) as f64,
+            })
+        })
+        .collect();
+    (counts, rows)
+}
+
+fn pct(v: f64) -> String {
+    format!("{:.1} %", 100.0 * v)
+}
+
+fn table(rows: &[Row]) -> Table {
+    let mut t = Table::new(
+        "Place accuracy: validation under each split, and held-out walks",
+        [
+            "split",
+            "building",
+            "floor",
+            "place",
+            "held-out building",
+            "held-out floor",
+            "held-out place",
+            "model (MB)",
+            "ms / image (1 thread)",
+        ],
+    );
+    for r in rows {
+        t.push_row([
+            r.split.clone(),
+            pct(r.building_acc),
+            pct(r.floor_acc),
+            pct(r.corridor_acc),
+            pct(r.heldout_building_acc),
+            pct(r.heldout_floor_acc),
+            pct(r.heldout_corridor_acc),
+            format!("{:.2}", r.model_mb),
+            format!("{:.2}", r.infer_ms),
+        ]);
+    }
+    t
+}
+
+fn class_table(rows: &[ClassRow]) -> Table {
+    let mut t = Table::new(
+        "Per class, session model on the held-out walks",
+        ["level", "class", "frames", "precision", "recall"],
+    );
+    for r in rows {
+        t.push_row([
+            r.level.to_string(),
+            r.class.clone(),
+            r.frames.to_string(),
+            pct(r.precision),
+            pct(r.recall),
+        ]);
+    }
+    t
+}
