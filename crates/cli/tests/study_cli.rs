@@ -81,3 +81,46 @@ fn study_render_types_trains_per_mode_and_tests_on_photo_like_frames() -> TestRe
     assert_eq!(bad.status.code(), Some(2));
     Ok(())
 }
+
+#[test]
+fn study_place_split_reports_both_splits_and_confusion_matrices() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("places");
+    let o = json_of(&indoorloc(&[
+        "study",
+        "place-split",
+        "--quick",
+        "--out",
+        out.to_str().ok_or("path")?,
+        "--frames",
+        "240",
+        "--heldout-frames",
+        "80",
+        "--view",
+        "resize=32x32,norm=imagenet",
+        "--epochs",
+        "1",
+        "--json",
+    ])?)?;
+    let rows = o["rows"].as_array().ok_or("rows")?;
+    let splits: Vec<&str> = rows.iter().filter_map(|r| r["split"].as_str()).collect();
+    assert_eq!(splits, ["random", "session"]);
+    for r in rows {
+        for key in [
+            "building_acc",
+            "floor_acc",
+            "corridor_acc",
+            "heldout_corridor_acc",
+        ] {
+            let a = r[key].as_f64().ok_or(key)?;
+            assert!((0.0..=1.0).contains(&a), "{key} = {a}");
+        }
+        assert!(r["model_mb"].as_f64().ok_or("model_mb")? > 0.0);
+    }
+    for level in ["building", "floor", "corridor"] {
+        assert!(out.join(format!("confusion-{level}.png")).is_file());
+    }
+    let html = std::fs::read_to_string(out.join("report.html"))?;
+    assert!(html.contains("data:image/png;base64") && html.contains("precision"));
+    Ok(())
+}

@@ -24,6 +24,10 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 use synth::dataset::{SynthConfig, WorldSource};
 
+/// Frames per rendered walk: short walks, many of them, so that every place is visited in
+/// both directions by several training sessions.
+const WALK_FRAMES: usize = 40;
+
 /// Arguments of `indoorloc study place-split`.
 #[derive(Args, Debug)]
 pub struct PlaceSplitArgs {
@@ -37,7 +41,7 @@ pub struct PlaceSplitArgs {
     /// Fewer frames, a smaller view and fewer epochs (minutes).
     #[arg(long)]
     quick: bool,
-    /// Override the number of training frames (rendered as walks of about 100 frames).
+    /// Override the number of training frames (rendered as walks of 40 frames).
     #[arg(long)]
     frames: Option<usize>,
     /// Override the number of held-out frames.
@@ -46,7 +50,7 @@ pub struct PlaceSplitArgs {
     /// Override the view (default: place240; with --quick a 96x96 one).
     #[arg(long)]
     view: Option<String>,
-    /// Override the number of epochs (default 10; 5 with --quick).
+    /// Override the number of epochs (default 12; 8 with --quick).
     #[arg(long)]
     epochs: Option<usize>,
     /// Appearance variant of the held-out walks.
@@ -125,7 +129,7 @@ pub fn run(args: &PlaceSplitArgs) -> Result<()> {
     let base = SynthConfig {
         world: WorldSource::Default { seed: args.seed },
         frames,
-        sequences: frames.div_ceil(100).max(5),
+        sequences: frames.div_ceil(WALK_FRAMES).max(5),
         width: 160,
         height: 120,
         seed: args.seed,
@@ -137,7 +141,7 @@ pub fn run(args: &PlaceSplitArgs) -> Result<()> {
     render(
         &SynthConfig {
             frames: heldout_frames,
-            sequences: heldout_frames.div_ceil(100).max(1),
+            sequences: heldout_frames.div_ceil(WALK_FRAMES).max(1),
             variant,
             seed: args.seed + 1000,
             ..base.clone()
@@ -183,8 +187,10 @@ pub fn run(args: &PlaceSplitArgs) -> Result<()> {
             }
             .into()
         }));
-        cfg.epochs = args.epochs.unwrap_or(if args.quick { 5 } else { 10 });
+        cfg.epochs = args.epochs.unwrap_or(if args.quick { 8 } else { 12 });
         cfg.split = split;
+        // photometric jitter: the held-out walks are seen under other lighting
+        cfg.augment = true;
         cfg.seed = args.seed;
         cfg.resume = true;
         let pb = bar(cfg.epochs as u64, &format!("{name} split"));
