@@ -109,18 +109,7 @@ impl Localizer {
 
     /// Packs views into `[N, C, H, W]` values, checking each against the model's input shape.
     pub(crate) fn pack(&self, views: &[View]) -> Result<Vec<f32>> {
-        let [c, h, w] = self.meta.input;
-        let mut inputs = Vec::with_capacity(views.len() * c * h * w);
-        for (i, v) in views.iter().enumerate() {
-            if [v.channels as usize, v.height as usize, v.width as usize] != self.meta.input {
-                return Err(LearnError::Input(format!(
-                    "view {i} is {}x{}x{}, the model takes {c}x{h}x{w} (view '{}')",
-                    v.channels, v.height, v.width, self.meta.view
-                )));
-            }
-            inputs.extend_from_slice(&v.data);
-        }
-        Ok(inputs)
+        pack_views(views, self.meta.input, &self.meta.view)
     }
 
     /// The checkpoint's description (task, view, metrics, ...).
@@ -173,6 +162,23 @@ impl Localizer {
         )?;
         Ok(estimates(&self.meta.coding, &rows, passes))
     }
+}
+
+/// Packs views into `[N, C, H, W]` values, checking each against a model's `input` shape
+/// (`view`: the model's view text, for the error).
+pub(crate) fn pack_views(views: &[View], input: [usize; 3], view: &str) -> Result<Vec<f32>> {
+    let [c, h, w] = input;
+    let mut inputs = Vec::with_capacity(views.len() * c * h * w);
+    for (i, v) in views.iter().enumerate() {
+        if [v.channels as usize, v.height as usize, v.width as usize] != input {
+            return Err(LearnError::Input(format!(
+                "view {i} is {}x{}x{}, the model takes {c}x{h}x{w} (view '{view}')",
+                v.channels, v.height, v.width
+            )));
+        }
+        inputs.extend_from_slice(&v.data);
+    }
+    Ok(inputs)
 }
 
 /// Outputs of `net` for packed inputs `[N, C, H, W]`: `N · passes` rows of `outputs` values,

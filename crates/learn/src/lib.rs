@@ -39,6 +39,7 @@ pub mod loader;
 pub mod loss;
 pub mod net;
 pub mod place;
+pub mod progress;
 pub mod seq;
 pub mod train;
 pub mod window;
@@ -47,6 +48,7 @@ pub use error::{LearnError, Result};
 pub use head::{PoseCoding, Task};
 pub use infer::{Estimate, Localizer};
 pub use net::{Arch, HeadConfig, NetConfig, PoseNet};
+pub use progress::Progress;
 pub use train::{
-    EpochMetrics, OptimizerKind, Schedule, TrainConfig, TrainEvent, TrainSummary, train,
+    EpochMetrics, Loaded, OptimizerKind, Schedule, TrainConfig, TrainEvent, TrainSummary, train,
 };

@@ -28,6 +28,7 @@ use crate::infer;
 use crate::loader;
 use crate::loss::pose_loss;
 use crate::net::{Arch, HeadConfig, NetConfig, PoseNet};
+use crate::progress::Progress;
 use crate::{LearnError, Result};
 
 /// The optimizer.
@@ -264,46 +265,21 @@ pub struct EpochMetrics {
     pub seconds: f64,
 }
 
-/// Progress of [`train`], for progress bars and logs.
+/// What [`train`] loaded before its first epoch.
 #[derive(Clone, Debug, PartialEq)]
-pub enum TrainEvent {
-    /// The dataset is in memory.
-    Loaded {
-        /// Training frames.
-        train: usize,
-        /// Validation frames.
-        val: usize,
-        /// Input shape `[C, H, W]`.
-        input: [usize; 3],
-        /// Seconds spent reading and viewing images.
-        seconds: f64,
-    },
-    /// Training continues from a checkpoint.
-    Resumed {
-        /// Epochs already finished.
-        epoch: usize,
-    },
-    /// One optimisation step finished.
-    Step {
-        /// Epoch (from 1).
-        epoch: usize,
-        /// Step within the epoch (from 1).
-        step: usize,
-        /// Steps in the epoch.
-        steps: usize,
-        /// Loss of the batch.
-        loss: f64,
-    },
-    /// An epoch finished and was checkpointed.
-    Epoch(EpochMetrics),
-    /// Validation did not improve for `patience` epochs.
-    EarlyStop {
-        /// Last epoch run.
-        epoch: usize,
-        /// Epoch of the kept weights.
-        best_epoch: usize,
-    },
+pub struct Loaded {
+    /// Training frames.
+    pub train: usize,
+    /// Validation frames.
+    pub val: usize,
+    /// Input shape `[C, H, W]`.
+    pub input: [usize; 3],
+    /// Seconds spent reading and viewing images.
+    pub seconds: f64,
 }
+
+/// Progress of [`train`], for progress bars and logs.
+pub type TrainEvent = Progress<Loaded, EpochMetrics>;
 
 /// The outcome of [`train`].
 #[derive(Clone, Debug, PartialEq)]
@@ -539,12 +515,12 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
     let spec = ViewSpec::resolve(cfg.view.as_deref().unwrap_or(default_view))
         .map_err(|e| LearnError::Config(e.to_string()))?;
     let data = dataset::load(&cfg.data, &spec, cfg.seed)?;
-    progress(&TrainEvent::Loaded {
+    progress(&TrainEvent::Loaded(Loaded {
         train: data.train.len(),
         val: data.val.len(),
         input: [data.train.channels, data.train.height, data.train.width],
         seconds: t0.elapsed().as_secs_f64(),
-    });
+    }));
     if data.train.len() < 2 {
         return Err(LearnError::Input(format!(
             "{}: {} training frame(s); BatchNorm needs at least 2",

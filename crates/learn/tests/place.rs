@@ -6,7 +6,7 @@ mod common;
 use std::path::Path;
 
 use data::native::{Label, NativeDataset, write_metadata};
-use learn::place::{PlaceConfig, PlaceEvent, PlaceLocalizer, PlaceSplit, train_place};
+use learn::place::{PlaceConfig, PlaceEvent, PlaceLoaded, PlaceLocalizer, PlaceSplit, train_place};
 use learn::{Arch, LearnError};
 
 /// Labels from the pose: building by x, corridor by the sign of y, direction by heading.
@@ -60,12 +60,12 @@ fn learns_places_and_inference_reproduces_the_stored_accuracy() {
     let summary = train_place(&config(&data, &out, 6), &mut |e| events.push(e.clone())).unwrap();
     assert!(matches!(
         events[0],
-        PlaceEvent::Loaded {
+        PlaceEvent::Loaded(PlaceLoaded {
             train: 48,
             val: 24,
             classes: [2, 2, 3],
             ..
-        }
+        })
     ));
     // floors are named within their building (B0/F0, B1/F0), places within their floor
     let acc = summary.val_accuracy;
@@ -128,10 +128,10 @@ fn a_random_split_mixes_sequences_and_unlabelled_data_is_refused() {
     // 30 frames pooled, a fifth drawn for validation
     assert!(matches!(
         events[0],
-        PlaceEvent::Loaded {
+        PlaceEvent::Loaded(PlaceLoaded {
             train: 24,
             val: 6,
             ..
-        }
+        })
     ));
 }

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use data::native::{NativeDataset, SplitName};
 use geom::metrics::{Stats, position_error};
-use learn::seq::{SeqConfig, SeqEvent, SeqLocalizer, SeqSummary, train_sequence};
+use learn::seq::{SeqConfig, SeqEvent, SeqFeatures, SeqLocalizer, SeqSummary, train_sequence};
 use learn::{Arch, LearnError, Schedule, TrainConfig, train};
 
 fn base_config(data: &Path, out: &Path, seed: u64) -> TrainConfig {
@@ -76,13 +76,13 @@ fn trains_on_windows_and_steps_live_as_it_runs_whole() {
     // two training sequences of 24 frames: 21 windows of 4 in each
     assert!(matches!(
         events[0],
-        SeqEvent::Features {
+        SeqEvent::Loaded(SeqFeatures {
             train: 48,
             val: 24,
             windows: 42,
             copies: 2,
             ..
-        }
+        })
     ));
     let losses: Vec<f64> = events
         .iter()

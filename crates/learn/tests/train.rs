@@ -6,7 +6,8 @@ use std::path::Path;
 
 use geom::metrics::{Stats, position_error, rotation_error_deg};
 use learn::{
-    Arch, LearnError, Localizer, Schedule, Task, TrainConfig, TrainEvent, TrainSummary, train,
+    Arch, LearnError, Loaded, Localizer, Schedule, Task, TrainConfig, TrainEvent, TrainSummary,
+    train,
 };
 
 /// A config that trains the small net on the tiny dataset in a few seconds.
@@ -67,12 +68,12 @@ fn loss_falls_and_inference_reproduces_the_stored_validation_error() {
     let (summary, events) = run(&tiny_config(&data, &out, 4));
     assert!(matches!(
         events[0],
-        TrainEvent::Loaded {
+        TrainEvent::Loaded(Loaded {
             train: 48,
             val: 24,
             input: [3, 24, 32],
             ..
-        }
+        })
     ));
     let losses = step_losses(&events);
     assert_eq!(losses.len(), 4 * 6);

@@ -2,13 +2,12 @@
 //! every epoch (`--resume` continues from it).
 
 use crate::output::{print_json, print_text};
-use crate::progress::bar;
+use crate::progress::TrainingDisplay;
 use anyhow::Result;
 use clap::{Args, ValueEnum};
-use indicatif::ProgressBar;
-use learn::place::{PlaceConfig, PlaceEvent};
-use learn::seq::{SeqConfig, SeqEvent, SeqSummary};
-use learn::{Arch, OptimizerKind, Schedule, Task, TrainConfig, TrainEvent, TrainSummary};
+use learn::place::{PlaceConfig, PlaceEpoch, PlaceLoaded};
+use learn::seq::{SeqConfig, SeqEpoch, SeqFeatures, SeqSummary};
+use learn::{Arch, EpochMetrics, Loaded, OptimizerKind, Schedule, Task, TrainConfig, TrainSummary};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -271,53 +270,24 @@ fn run_place(args: &TrainArgs) -> Result<()> {
     );
     let start = Instant::now();
     let cfg = place_config(args)?;
-    let lines = !args.json;
-    let mut pb: Option<ProgressBar> = None;
-    let summary = learn::place::train_place(&cfg, &mut |event| match event {
-        PlaceEvent::Loaded {
-            train,
-            val,
-            classes,
-            seconds,
-        } => {
-            if lines {
-                eprintln!(
-                    "data: {train} train / {val} val frames, classes {classes:?} (building, floor, place), {seconds:.1} s"
-                );
-            }
-        }
-        PlaceEvent::Resumed { epoch } => eprintln!("resuming after epoch {epoch}"),
-        PlaceEvent::Step {
-            epoch,
-            step,
-            steps,
-            loss,
-        } => {
-            let p = pb.get_or_insert_with(|| bar(*steps as u64, &format!("epoch {epoch}")));
-            p.set_position(*step as u64);
-            p.set_message(format!("epoch {epoch} loss {loss:.3}"));
-        }
-        PlaceEvent::Epoch(m) => {
-            if let Some(p) = pb.take() {
-                p.finish_and_clear();
-            }
-            if lines {
-                let [b, f, c] = m.val_accuracy.map(|a| 100.0 * a);
-                eprintln!(
-                    "epoch {:>3}  loss {:.4}  val accuracy building {b:.1} %  floor {f:.1} %  place {c:.1} %  {:.1} s",
-                    m.epoch, m.train_loss, m.seconds
-                );
-            }
-        }
-        PlaceEvent::EarlyStop { epoch, best_epoch } => {
-            if lines {
-                eprintln!("early stop after epoch {epoch}; keeping epoch {best_epoch}");
-            }
-        }
-    });
-    if let Some(p) = pb {
-        p.finish_and_clear();
-    }
+    let display = TrainingDisplay {
+        lines: !args.json,
+        prefix: "",
+        loaded: &|l: &PlaceLoaded| {
+            format!(
+                "data: {} train / {} val frames, classes {:?} (building, floor, place), {:.1} s",
+                l.train, l.val, l.classes, l.seconds
+            )
+        },
+        epoch: &|m: &PlaceEpoch| {
+            let [b, f, c] = m.val_accuracy.map(|a| 100.0 * a);
+            format!(
+                "epoch {:>3}  loss {:.4}  val accuracy building {b:.1} %  floor {f:.1} %  place {c:.1} %  {:.1} s",
+                m.epoch, m.train_loss, m.seconds
+            )
+        },
+    };
+    let summary = display.run(|progress| learn::place::train_place(&cfg, progress));
     let summary = summary?;
     let out = PlaceOutput {
         out: summary.out.clone(),
@@ -413,117 +383,57 @@ pub fn run(args: &TrainArgs) -> Result<()> {
 /// Trains with a progress bar per epoch and one line per finished epoch on stderr (`lines`:
 /// also when stderr is not a terminal, for logs).
 pub fn train_with_progress(cfg: &TrainConfig, lines: bool) -> Result<TrainSummary> {
-    let mut pb: Option<ProgressBar> = None;
-    let summary = learn::train(cfg, &mut |event| match event {
-        TrainEvent::Loaded {
-            train,
-            val,
-            input,
-            seconds,
-        } => {
-            if lines {
-                eprintln!(
-                    "data: {train} train / {val} val frames, input {}x{}x{}, loaded in {seconds:.1} s",
-                    input[0], input[1], input[2]
-                );
-            }
-        }
-        TrainEvent::Resumed { epoch } => eprintln!("resuming after epoch {epoch}"),
-        TrainEvent::Step {
-            epoch,
-            step,
-            steps,
-            loss,
-        } => {
-            let p = pb.get_or_insert_with(|| bar(*steps as u64, &format!("epoch {epoch}")));
-            p.set_position(*step as u64);
-            p.set_message(format!("epoch {epoch} loss {loss:.3}"));
-        }
-        TrainEvent::Epoch(m) => {
-            if let Some(p) = pb.take() {
-                p.finish_and_clear();
-            }
-            if lines {
-                eprintln!(
-                    "epoch {:>3}  loss {:.4}  train {:.3} m  val median {:.3} m {:.2}°  lr {:.2e}  {:.1} s",
-                    m.epoch,
-                    m.train_loss,
-                    m.train_pos_m,
-                    m.val_median_pos_m,
-                    m.val_median_rot_deg,
-                    m.lr,
-                    m.seconds
-                );
-            }
-        }
-        TrainEvent::EarlyStop { epoch, best_epoch } => {
-            if lines {
-                eprintln!("early stop after epoch {epoch}; keeping epoch {best_epoch}");
-            }
-        }
-    });
-    if let Some(p) = pb {
-        p.finish_and_clear();
-    }
-    Ok(summary?)
+    let display = TrainingDisplay {
+        lines,
+        prefix: "",
+        loaded: &|l: &Loaded| {
+            let [c, h, w] = l.input;
+            format!(
+                "data: {} train / {} val frames, input {c}x{h}x{w}, loaded in {:.1} s",
+                l.train, l.val, l.seconds
+            )
+        },
+        epoch: &|m: &EpochMetrics| {
+            format!(
+                "epoch {:>3}  loss {:.4}  train {:.3} m  val median {:.3} m {:.2}°  lr {:.2e}  {:.1} s",
+                m.epoch,
+                m.train_loss,
+                m.train_pos_m,
+                m.val_median_pos_m,
+                m.val_median_rot_deg,
+                m.lr,
+                m.seconds
+            )
+        },
+    };
+    Ok(display.run(|progress| learn::train(cfg, progress))?)
 }
 
 /// Trains the sequence part with a progress bar per epoch and one line per finished epoch on
 /// stderr (`lines`: also when stderr is not a terminal).
 pub fn train_sequence_with_progress(cfg: &SeqConfig, lines: bool) -> Result<SeqSummary> {
-    let mut pb: Option<ProgressBar> = None;
-    let summary = learn::seq::train_sequence(cfg, &mut |event| match event {
-        SeqEvent::Features {
-            train,
-            val,
-            windows,
-            copies,
-            seconds,
-        } => {
-            if lines {
-                eprintln!(
-                    "sequence: {train} train / {val} val frames, {windows} windows of {}, {copies} feature copies, {seconds:.1} s",
-                    cfg.window
-                );
-            }
-        }
-        SeqEvent::Resumed { epoch } => eprintln!("sequence: resuming after epoch {epoch}"),
-        SeqEvent::Step {
-            epoch,
-            step,
-            steps,
-            loss,
-        } => {
-            let p = pb.get_or_insert_with(|| bar(*steps as u64, &format!("lstm {epoch}")));
-            p.set_position(*step as u64);
-            p.set_message(format!("lstm epoch {epoch} loss {loss:.3}"));
-        }
-        SeqEvent::Epoch(m) => {
-            if let Some(p) = pb.take() {
-                p.finish_and_clear();
-            }
-            if lines {
-                eprintln!(
-                    "lstm epoch {:>3}  loss {:.4}  val median {:.3} m {:.2}°  jitter {:.3} m  {:.1} s",
-                    m.epoch,
-                    m.train_loss,
-                    m.val_median_pos_m,
-                    m.val_median_rot_deg,
-                    m.val_jitter_m,
-                    m.seconds
-                );
-            }
-        }
-        SeqEvent::EarlyStop { epoch, best_epoch } => {
-            if lines {
-                eprintln!("sequence: early stop after epoch {epoch}; keeping epoch {best_epoch}");
-            }
-        }
-    });
-    if let Some(p) = pb {
-        p.finish_and_clear();
-    }
-    Ok(summary?)
+    let display = TrainingDisplay {
+        lines,
+        prefix: "lstm ",
+        loaded: &|f: &SeqFeatures| {
+            format!(
+                "sequence: {} train / {} val frames, {} windows of {}, {} feature copies, {:.1} s",
+                f.train, f.val, f.windows, cfg.window, f.copies, f.seconds
+            )
+        },
+        epoch: &|m: &SeqEpoch| {
+            format!(
+                "lstm epoch {:>3}  loss {:.4}  val median {:.3} m {:.2}°  jitter {:.3} m  {:.1} s",
+                m.epoch,
+                m.train_loss,
+                m.val_median_pos_m,
+                m.val_median_rot_deg,
+                m.val_jitter_m,
+                m.seconds
+            )
+        },
+    };
+    Ok(display.run(|progress| learn::seq::train_sequence(cfg, progress))?)
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@ use imgproc::view::{View, ViewSpec};
 
 use super::{PLACE_BPK, PLACE_TOML, PlaceMeta, PlaceNet};
 use crate::checkpoint;
-use crate::infer::CHUNK;
+use crate::infer::{CHUNK, pack_views};
 use crate::{LearnError, Result};
 
 /// The most likely class of each level of one image, with its probability.
@@ -90,17 +90,7 @@ impl PlaceLocalizer {
 
     /// Places of many views made with this model's view.
     pub fn predict_batch(&self, views: &[View]) -> Result<Vec<PlacePrediction>> {
-        let [c, h, w] = self.meta.input;
-        let mut inputs = Vec::with_capacity(views.len() * c * h * w);
-        for (i, v) in views.iter().enumerate() {
-            if [v.channels as usize, v.height as usize, v.width as usize] != self.meta.input {
-                return Err(LearnError::Input(format!(
-                    "view {i} is {}x{}x{}, the model takes {c}x{h}x{w} (view '{}')",
-                    v.channels, v.height, v.width, self.meta.view
-                )));
-            }
-            inputs.extend_from_slice(&v.data);
-        }
+        let inputs = pack_views(views, self.meta.input, &self.meta.view)?;
         let levels = self.meta.classes.levels();
         Ok(classify(&self.net, &inputs, self.meta.input, &self.device)?
             .into_iter()

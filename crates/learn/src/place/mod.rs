@@ -34,7 +34,9 @@ use crate::net::{Arch, Backbone, seeded_init};
 use crate::{LearnError, Result};
 
 pub use infer::{PlaceLocalizer, PlacePrediction};
-pub use train::{PlaceConfig, PlaceEvent, PlaceSplit, PlaceSummary, train_place};
+pub use train::{
+    PlaceConfig, PlaceEvent, PlaceLoaded, PlaceSplit, PlaceSummary, accuracy, train_place,
+};
 
 /// File name of the place model's description.
 pub const PLACE_TOML: &str = "place.toml";

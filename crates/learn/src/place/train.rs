@@ -33,6 +33,7 @@ use crate::checkpoint::{self, DatasetRef, StateFiles};
 use crate::dataset::{self, DEFAULT_VAL_FRACTION, Samples};
 use crate::loader;
 use crate::net::{Arch, mc};
+use crate::progress::Progress;
 use crate::train::Schedule;
 use crate::{LearnError, Result};
 
@@ -146,46 +147,21 @@ impl PlaceConfig {
     }
 }
 
-/// Progress of [`train_place`].
+/// What [`train_place`] loaded before its first epoch.
 #[derive(Clone, Debug, PartialEq)]
-pub enum PlaceEvent {
-    /// The dataset is in memory.
-    Loaded {
-        /// Training frames.
-        train: usize,
-        /// Validation frames.
-        val: usize,
-        /// Classes per level.
-        classes: [usize; 3],
-        /// Seconds spent reading and viewing images.
-        seconds: f64,
-    },
-    /// Training continues from a checkpoint.
-    Resumed {
-        /// Epochs already finished.
-        epoch: usize,
-    },
-    /// One optimisation step finished.
-    Step {
-        /// Epoch (from 1).
-        epoch: usize,
-        /// Step within the epoch (from 1).
-        step: usize,
-        /// Steps in the epoch.
-        steps: usize,
-        /// Loss of the batch.
-        loss: f64,
-    },
-    /// An epoch finished and was checkpointed.
-    Epoch(PlaceEpoch),
-    /// Validation did not improve for `patience` epochs.
-    EarlyStop {
-        /// Last epoch run.
-        epoch: usize,
-        /// Epoch of the kept weights.
-        best_epoch: usize,
-    },
+pub struct PlaceLoaded {
+    /// Training frames.
+    pub train: usize,
+    /// Validation frames.
+    pub val: usize,
+    /// Classes per level.
+    pub classes: [usize; 3],
+    /// Seconds spent reading and viewing images.
+    pub seconds: f64,
 }
+
+/// Progress of [`train_place`].
+pub type PlaceEvent = Progress<PlaceLoaded, PlaceEpoch>;
 
 /// The outcome of [`train_place`].
 #[derive(Clone, Debug, PartialEq)]
@@ -329,12 +305,12 @@ pub fn train_place(
     let labels_path = cfg.data.join(data::native::LABELS_CSV);
     let train_targets = sample_targets(&train, &labels, &classes, &labels_path)?;
     let val_targets = sample_targets(&val, &labels, &classes, &labels_path)?;
-    progress(&PlaceEvent::Loaded {
+    progress(&PlaceEvent::Loaded(PlaceLoaded {
         train: train.len(),
         val: val.len(),
         classes: classes.sizes(),
         seconds: t0.elapsed().as_secs_f64(),
-    });
+    }));
     if train.len() < 2 {
         return Err(LearnError::Input(format!(
             "{}: {} training frame(s); BatchNorm needs at least 2",

@@ -39,4 +39,4 @@ pub use head::{SeqHead, SeqHeadConfig};
 pub use infer::{SeqLocalizer, SeqTracker};
 pub use meta::{SEQ_BPK, SEQ_STATE_DIR, SEQ_TOML, SeqEpoch, SeqMeta};
 pub use stream::SeqStream;
-pub use train::{SeqConfig, SeqEvent, SeqSummary, train_sequence};
+pub use train::{SeqConfig, SeqEvent, SeqFeatures, SeqSummary, train_sequence};

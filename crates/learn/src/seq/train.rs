@@ -33,6 +33,7 @@ use crate::infer::{self, Localizer};
 use crate::loader;
 use crate::loss::pose_loss;
 use crate::net::mc;
+use crate::progress::Progress;
 use crate::train::Schedule;
 use crate::window;
 use crate::{LearnError, Result};
@@ -141,48 +142,23 @@ impl SeqConfig {
     }
 }
 
-/// Progress of [`train_sequence`].
+/// What [`train_sequence`] computed before its first epoch.
 #[derive(Clone, Debug, PartialEq)]
-pub enum SeqEvent {
-    /// The frozen features are computed.
-    Features {
-        /// Training frames.
-        train: usize,
-        /// Validation frames.
-        val: usize,
-        /// Training windows.
-        windows: usize,
-        /// Feature copies per training frame (clean + jittered).
-        copies: usize,
-        /// Seconds spent reading, viewing and running the CNN.
-        seconds: f64,
-    },
-    /// Training continues from a checkpoint.
-    Resumed {
-        /// Epochs already finished.
-        epoch: usize,
-    },
-    /// One optimisation step finished.
-    Step {
-        /// Epoch (from 1).
-        epoch: usize,
-        /// Step within the epoch (from 1).
-        step: usize,
-        /// Steps in the epoch.
-        steps: usize,
-        /// Loss of the batch.
-        loss: f64,
-    },
-    /// An epoch finished and was checkpointed.
-    Epoch(SeqEpoch),
-    /// Validation did not improve for `patience` epochs.
-    EarlyStop {
-        /// Last epoch run.
-        epoch: usize,
-        /// Epoch of the kept weights.
-        best_epoch: usize,
-    },
+pub struct SeqFeatures {
+    /// Training frames.
+    pub train: usize,
+    /// Validation frames.
+    pub val: usize,
+    /// Training windows.
+    pub windows: usize,
+    /// Feature copies per training frame (clean + jittered).
+    pub copies: usize,
+    /// Seconds spent reading, viewing and running the CNN.
+    pub seconds: f64,
 }
+
+/// Progress of [`train_sequence`].
+pub type SeqEvent = Progress<SeqFeatures, SeqEpoch>;
 
 /// The outcome of [`train_sequence`].
 #[derive(Clone, Debug, PartialEq)]
@@ -453,13 +429,13 @@ pub fn train_sequence(cfg: &SeqConfig, progress: &mut dyn FnMut(&SeqEvent)) -> R
     let input = [data.val.channels, data.val.height, data.val.width];
     let (val_features, _) =
         infer::feature_rows(base.net(), &data.val.inputs, input, base.device())?;
-    progress(&SeqEvent::Features {
+    progress(&SeqEvent::Loaded(SeqFeatures {
         train: data.train.len(),
         val: data.val.len(),
         windows: windows.len(),
         copies: copies.len(),
         seconds: t0.elapsed().as_secs_f64(),
-    });
+    }));
     let coding = base_meta.coding.clone();
     let validation = Validation {
         features: val_features,
