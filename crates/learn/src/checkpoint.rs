@@ -236,16 +236,21 @@ pub fn write_state<M: Module>(
     })
 }
 
-/// The optimizer of the resume state `state` in `dir`, into a `fresh` one of the same kind.
-pub fn read_optimizer(
+/// The module and optimizer of the resume state `state` in `dir`, loaded into `module` (built
+/// as the checkpoint's) and `optim` (of the same kind); each file checked against its hash.
+pub fn read_state<M: Module>(
     dir: &Path,
     state: &StateFiles,
-    fresh: ModuleOptimizer,
-) -> Result<ModuleOptimizer> {
+    module: M,
+    optim: ModuleOptimizer,
+) -> Result<(M, ModuleOptimizer)> {
+    let weights = read_checked(dir, &state.weights, &state.weights_hash)?;
+    let module = load_into(module, weights, &dir.join(&state.weights))?;
     let bytes = read_checked(dir, &state.optimizer, &state.optimizer_hash)?;
-    fresh
+    let optim = optim
         .from_bytes(Bytes::from_bytes_vec(bytes))
-        .map_err(|e| LearnError::corrupt(dir.join(&state.optimizer), e.to_string()))
+        .map_err(|e| LearnError::corrupt(dir.join(&state.optimizer), e.to_string()))?;
+    Ok((module, optim))
 }
 
 /// Removes state files that `keep` does not name from the folder they are in (older epochs,

@@ -462,9 +462,8 @@ fn resume(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device)
             settings_text(&new, cfg.task.unwrap_or(meta.coding.task))
         ));
     }
-    let weights = checkpoint::read_checked(dir, &meta.state.weights, &meta.state.weights_hash)?;
-    let net = checkpoint::load_weights(&meta.net, weights, device, &dir.join(&meta.state.weights))?;
-    let optim = checkpoint::read_optimizer(dir, &meta.state, optimizer(cfg))?;
+    let (net, optim) =
+        checkpoint::read_state(dir, &meta.state, meta.net.init(device, 0)?, optimizer(cfg))?;
     let stale = meta.epoch.saturating_sub(meta.best_epoch);
     let mut meta = meta;
     meta.config.epochs = cfg.epochs;

@@ -507,13 +507,8 @@ fn resume(
             cfg.resume_key()
         ));
     }
-    let weights = checkpoint::read_checked(dir, &meta.state.weights, &meta.state.weights_hash)?;
-    let net = checkpoint::load_into(
-        net_cfg.init(device, 0)?,
-        weights,
-        &dir.join(&meta.state.weights),
-    )?;
-    let optim = checkpoint::read_optimizer(dir, &meta.state, optimizer(cfg))?;
+    let (net, optim) =
+        checkpoint::read_state(dir, &meta.state, net_cfg.init(device, 0)?, optimizer(cfg))?;
     let stale = meta.epoch.saturating_sub(meta.best_epoch);
     let mut meta = meta;
     meta.config.epochs = cfg.epochs;

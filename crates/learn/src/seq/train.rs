@@ -366,13 +366,8 @@ fn resume(
             cfg.resume_key()
         ));
     }
-    let weights = checkpoint::read_checked(dir, &meta.state.weights, &meta.state.weights_hash)?;
-    let head = checkpoint::load_into(
-        head_cfg.init(device, 0),
-        weights,
-        &dir.join(&meta.state.weights),
-    )?;
-    let optim = checkpoint::read_optimizer(dir, &meta.state, optimizer(cfg))?;
+    let (head, optim) =
+        checkpoint::read_state(dir, &meta.state, head_cfg.init(device, 0), optimizer(cfg))?;
     let stale = meta.epoch.saturating_sub(meta.best_epoch);
     let mut meta = meta;
     meta.config.epochs = cfg.epochs;
