@@ -100,8 +100,17 @@ fn study_place_split_reports_both_splits_and_confusion_matrices() -> TestResult 
         "resize=32x32,norm=imagenet",
         "--epochs",
         "1",
+        "--hierarchical",
         "--json",
     ])?)?;
+    let modes: Vec<&str> = o["hierarchy"]
+        .as_array()
+        .ok_or("hierarchy")?
+        .iter()
+        .filter_map(|r| r["mode"].as_str())
+        .collect();
+    assert_eq!(modes, ["global", "routed", "oracle"]);
+    assert!(out.join("data-B0").join("poses.csv").is_file());
     let rows = o["rows"].as_array().ok_or("rows")?;
     let splits: Vec<&str> = rows.iter().filter_map(|r| r["split"].as_str()).collect();
     assert_eq!(splits, ["random", "session"]);

@@ -10,6 +10,7 @@
 //!    and one-thread inference time; per-class precision and recall and confusion matrices of
 //!    the session model on the held-out walks (`DIR/confusion-<level>.png`, also in the report).
 
+use crate::cmd::train::train_with_progress;
 use crate::output::{print_json, print_text};
 use crate::progress::bar;
 use anyhow::{Context, Result};
@@ -18,6 +19,7 @@ use data::native::NativeDataset;
 use learn::place::{
     LEVELS, PlaceConfig, PlaceLocalizer, PlacePrediction, PlaceSplit, class_names, train_place,
 };
+use learn::{Localizer, Schedule, Task, TrainConfig};
 use report::{HtmlReport, Table};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -59,6 +61,11 @@ pub struct PlaceSplitArgs {
     /// Seed of the building, walks and training.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Also train a pose regressor per building and one for the whole building, and compare
+    /// the global one with the per-building ones chosen by the session classifier (and by the
+    /// true building) on the held-out walks.
+    #[arg(long)]
+    hierarchical: bool,
     /// Print one JSON document instead of a table.
     #[arg(long)]
     json: bool,
@@ -93,11 +100,25 @@ struct ClassRow {
     recall: f64,
 }
 
+/// Pose errors on the held-out walks of one way to choose the pose regressor.
+#[derive(Debug, Serialize)]
+struct HierarchyRow {
+    /// `global` (one regressor for the whole building), `routed` (the per-building regressor
+    /// the place classifier picks), `oracle` (the true building's regressor).
+    mode: &'static str,
+    median_pos_m: f64,
+    mean_pos_m: f64,
+    median_rot_deg: f64,
+}
+
 /// What `study place-split` prints.
 #[derive(Debug, Serialize)]
 struct StudyOutput {
     rows: Vec<Row>,
     classes: Vec<ClassRow>,
+    /// Global against per-building pose regressors (`--hierarchical`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    hierarchy: Vec<HierarchyRow>,
     train_frames: usize,
     heldout_frames: usize,
     heldout_variant: String,
@@ -258,11 +279,26 @@ pub fn run(args: &PlaceSplitArgs) -> Result<()> {
         classes.extend(class_rows);
     }
     page.table(&class_table(&classes));
+    let hierarchy = if args.hierarchical {
+        say("   pose regressors: one for the whole building, one per building");
+        let rows = hierarchy(args, &data, &ds, &views_img, &predicted)?;
+        page.section("Hierarchical localization");
+        page.paragraph(
+            "One pose regressor trained on every building, against one per building chosen by \
+             the place classifier's building (and, as the bound, by the true building), on the \
+             held-out walks.",
+        );
+        page.table(&hierarchy_table(&rows));
+        rows
+    } else {
+        Vec::new()
+    };
     let report = args.out.join("report.html");
     page.write(&report)?;
     let out = StudyOutput {
         rows,
         classes,
+        hierarchy,
         train_frames: frames,
         heldout_frames: truth.len(),
         heldout_variant: args.heldout_variant.clone(),
@@ -272,8 +308,13 @@ pub fn run(args: &PlaceSplitArgs) -> Result<()> {
     if args.json {
         print_json(&out)
     } else {
+        let hierarchy = if out.hierarchy.is_empty() {
+            String::new()
+        } else {
+            format!("{}\n", hierarchy_table(&out.hierarchy).to_text())
+        };
         print_text(&format!(
-            "{}\n{} training frames, {} held-out ({}); report: {}\n",
+            "{}\n{hierarchy}{} training frames, {} held-out ({}); report: {}\n",
             table(&out.rows).to_text(),
             out.train_frames,
             out.heldout_frames,
@@ -411,6 +452,199 @@ fn class_table(rows: &[ClassRow]) -> Table {
             r.frames.to_string(),
             pct(r.precision),
             pct(r.recall),
+        ]);
+    }
+    t
+}
+
+/// Trains the global and per-building pose regressors (reused when trained before) and
+/// measures them on the held-out walks, routed three ways.
+fn hierarchy(
+    args: &PlaceSplitArgs,
+    data: &Path,
+    heldout: &NativeDataset,
+    images: &[image::DynamicImage],
+    predicted: &[PlacePrediction],
+) -> Result<Vec<HierarchyRow>> {
+    let ds = NativeDataset::open(data)?;
+    let labels = ds
+        .labels
+        .as_ref()
+        .with_context(|| format!("{}: no labels.csv", data.display()))?;
+    let mut buildings: Vec<String> = labels.iter().map(|l| l.building.clone()).collect();
+    buildings.sort();
+    buildings.dedup();
+    let train = |dir: &Path, model: &Path| -> Result<Localizer> {
+        let mut cfg = TrainConfig::new(dir, model);
+        cfg.task = Some(Task::Pose6);
+        cfg.view = Some(
+            if args.quick {
+                "gray,resize=64x48,norm=pm1"
+            } else {
+                "gray,resize=80x60,norm=pm1"
+            }
+            .into(),
+        );
+        cfg.epochs = if args.quick { 4 } else { 8 };
+        cfg.lr = 2e-3;
+        cfg.schedule = Schedule::Cosine {
+            final_fraction: 0.02,
+        };
+        cfg.patience = None;
+        cfg.seed = args.seed;
+        cfg.resume = true;
+        train_with_progress(&cfg, !args.json)?;
+        Ok(Localizer::load(model)?)
+    };
+    let global = train(data, &args.out.join("pose-all"))?;
+    let mut per_building = Vec::new();
+    for b in &buildings {
+        let dir = args.out.join(format!("data-{b}"));
+        if write_subset(&ds, labels, b, &dir)? {
+            per_building.push((b.clone(), train(&dir, &args.out.join(format!("pose-{b}")))?));
+        }
+    }
+    let views = images
+        .iter()
+        .map(|img| global.view(img))
+        .collect::<learn::Result<Vec<_>>>()?;
+    let truth: Vec<geom::Pose> = heldout.trajectory.frames.iter().map(|f| f.pose).collect();
+    let true_building: Vec<String> = (0..truth.len())
+        .map(|i| {
+            let frame = heldout.frame_number(i).unwrap_or(i as u64);
+            heldout
+                .label(frame)
+                .map(|l| l.building.clone())
+                .unwrap_or_default()
+        })
+        .collect();
+    let routed = |choice: &dyn Fn(usize) -> String| -> Result<Vec<geom::Pose>> {
+        // frames routed to a building without its own regressor keep the global estimate
+        let mut out: Vec<geom::Pose> = global
+            .predict_batch(&views, 0)?
+            .into_iter()
+            .map(|e| e.pose)
+            .collect();
+        for (b, loc) in &per_building {
+            let idx: Vec<usize> = (0..views.len()).filter(|&i| choice(i) == *b).collect();
+            let picked: Vec<_> = idx.iter().map(|&i| views[i].clone()).collect();
+            for (i, est) in idx.iter().zip(loc.predict_batch(&picked, 0)?) {
+                out[*i] = est.pose;
+            }
+        }
+        Ok(out)
+    };
+    let global_poses: Vec<geom::Pose> = global
+        .predict_batch(&views, 0)?
+        .into_iter()
+        .map(|e| e.pose)
+        .collect();
+    let by_classifier = routed(&|i| predicted[i].building.0.clone())?;
+    let by_truth = routed(&|i| true_building[i].clone())?;
+    [
+        ("global", global_poses),
+        ("routed", by_classifier),
+        ("oracle", by_truth),
+    ]
+    .into_iter()
+    .map(|(mode, poses)| {
+        let pos: Vec<f64> = poses
+            .iter()
+            .zip(&truth)
+            .map(|(e, gt)| geom::metrics::position_error(gt, e))
+            .collect();
+        let rot: Vec<f64> = poses
+            .iter()
+            .zip(&truth)
+            .map(|(e, gt)| geom::metrics::rotation_error_deg(gt, e))
+            .collect();
+        let (p, r) = (
+            geom::metrics::Stats::of(&pos)?,
+            geom::metrics::Stats::of(&rot)?,
+        );
+        Ok(HierarchyRow {
+            mode,
+            median_pos_m: p.median,
+            mean_pos_m: p.mean,
+            median_rot_deg: r.median,
+        })
+    })
+    .collect()
+}
+
+/// The frames of building `building` as a native dataset in `dir` (the same frame numbers, the
+/// images reached through a link to the full dataset's `frames/`), splits kept by sequence;
+/// false when too few walks passed through the building to train and validate a regressor.
+fn write_subset(
+    ds: &NativeDataset,
+    labels: &[data::native::Label],
+    building: &str,
+    dir: &Path,
+) -> Result<bool> {
+    let keep: std::collections::HashSet<u64> = labels
+        .iter()
+        .filter(|l| l.building == building)
+        .map(|l| l.frame)
+        .collect();
+    let frames: Vec<data::PoseFrame> = ds
+        .trajectory
+        .frames
+        .iter()
+        .filter(|f| f.name.parse::<u64>().is_ok_and(|n| keep.contains(&n)))
+        .cloned()
+        .collect();
+    let mut seqs: Vec<String> = frames.iter().map(|f| f.seq.clone()).collect();
+    seqs.sort();
+    seqs.dedup();
+    let only = |list: &[String]| -> Vec<String> {
+        list.iter().filter(|s| seqs.contains(s)).cloned().collect()
+    };
+    let mut splits = data::native::Splits {
+        train: only(&ds.splits.train),
+        val: only(&ds.splits.val),
+        test: only(&ds.splits.test),
+    };
+    // a building no validation walk passed through validates on one of its training walks
+    if splits.val.is_empty() && splits.train.len() >= 2 {
+        splits.val.extend(splits.train.pop());
+    }
+    if splits.train.is_empty() || splits.val.is_empty() {
+        return Ok(false);
+    }
+    let kept: Vec<data::native::Label> = labels
+        .iter()
+        .filter(|l| keep.contains(&l.frame))
+        .cloned()
+        .collect();
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let link = dir.join("frames");
+    if !link.exists() {
+        let target = std::fs::canonicalize(ds.root.join("frames"))?;
+        std::os::unix::fs::symlink(&target, &link)
+            .with_context(|| format!("cannot link {} to {}", link.display(), target.display()))?;
+    }
+    let mut trajectory = data::Trajectory::new(frames);
+    trajectory.camera = ds.trajectory.camera;
+    data::native::write_metadata(dir, &ds.info, &trajectory, Some(&kept), None, &splits)?;
+    Ok(true)
+}
+
+fn hierarchy_table(rows: &[HierarchyRow]) -> Table {
+    let mut t = Table::new(
+        "Pose regressors on the held-out walks",
+        ["regressor", "median (m)", "mean (m)", "median (°)"],
+    );
+    for r in rows {
+        let name = match r.mode {
+            "global" => "one for all buildings",
+            "routed" => "per building, chosen by the classifier",
+            _ => "per building, chosen by the true building",
+        };
+        t.push_row([
+            name.to_string(),
+            format!("{:.3}", r.median_pos_m),
+            format!("{:.3}", r.mean_pos_m),
+            format!("{:.2}", r.median_rot_deg),
         ]);
     }
     t
