@@ -52,8 +52,8 @@ pub struct DatasetRef {
     pub val_frames: usize,
 }
 
-/// The resume state of the last finished epoch.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// The resume state of the last finished epoch (empty before the first).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct StateFiles {
     /// Weights file, relative to the checkpoint folder.
     pub weights: String,

@@ -413,12 +413,7 @@ fn fresh(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device) 
         val_median_rot_deg: f64::INFINITY,
         stopped_early: false,
         weights_hash: String::new(),
-        state: StateFiles {
-            weights: String::new(),
-            weights_hash: String::new(),
-            optimizer: String::new(),
-            optimizer_hash: String::new(),
-        },
+        state: StateFiles::default(),
         history: Vec::new(),
     };
     Ok(Start {

@@ -357,12 +357,7 @@ pub fn train_place(
             best_epoch: 0,
             val_accuracy: [0.0; 3],
             weights_hash: String::new(),
-            state: StateFiles {
-                weights: String::new(),
-                weights_hash: String::new(),
-                optimizer: String::new(),
-                optimizer_hash: String::new(),
-            },
+            state: StateFiles::default(),
             history: Vec::new(),
         };
         Start {

@@ -322,12 +322,7 @@ fn fresh(
         val_median_pos_m: f64::INFINITY,
         val_median_rot_deg: f64::INFINITY,
         weights_hash: String::new(),
-        state: StateFiles {
-            weights: String::new(),
-            weights_hash: String::new(),
-            optimizer: String::new(),
-            optimizer_hash: String::new(),
-        },
+        state: StateFiles::default(),
         history: Vec::new(),
     };
     Start {
