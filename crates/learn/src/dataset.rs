@@ -44,6 +44,13 @@ impl Samples {
         self.poses.is_empty()
     }
 
+    /// Sequence and frame number of sample `i`, from its `seq/frame` name; `None` when the
+    /// frame is not named by a number (posed photos).
+    pub fn frame_key(&self, i: usize) -> Option<(&str, u64)> {
+        let (seq, frame) = self.names.get(i)?.rsplit_once('/')?;
+        Some((seq, frame.parse().ok()?))
+    }
+
     /// Values per view.
     pub fn view_len(&self) -> usize {
         self.channels * self.width * self.height

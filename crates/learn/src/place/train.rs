@@ -207,11 +207,11 @@ pub(super) fn sample_targets(
     samples
         .names
         .iter()
-        .map(|name| {
-            let label = name
-                .rsplit_once('/')
-                .and_then(|(_, frame)| frame.parse::<u64>().ok())
-                .and_then(|frame| labels.get(&frame))
+        .enumerate()
+        .map(|(i, name)| {
+            let label = samples
+                .frame_key(i)
+                .and_then(|(_, frame)| labels.get(&frame))
                 .ok_or_else(|| {
                     LearnError::Input(format!(
                         "{}: no label for frame {name}",

@@ -195,17 +195,17 @@ impl SeqSummary {
 
 /// `(sequence, frame number)` of each sample, from its `seq/frame` name.
 fn frame_keys(samples: &Samples, data: &Path) -> Result<Vec<(String, u64)>> {
-    samples
-        .names
-        .iter()
-        .map(|name| {
-            name.rsplit_once('/')
-                .and_then(|(seq, frame)| Some((seq.to_string(), frame.parse().ok()?)))
+    (0..samples.len())
+        .map(|i| {
+            samples
+                .frame_key(i)
+                .map(|(seq, number)| (seq.to_string(), number))
                 .ok_or_else(|| {
                     LearnError::Input(format!(
-                        "{}: frame '{name}' has no frame number; a sequence model needs \
+                        "{}: frame '{}' has no frame number; a sequence model needs \
                          recordings of numbered frames",
-                        data.display()
+                        data.display(),
+                        samples.names[i]
                     ))
                 })
         })

@@ -281,7 +281,7 @@ pub fn run(args: &PlaceSplitArgs) -> Result<()> {
     page.table(&class_table(&classes));
     let hierarchy = if args.hierarchical {
         say("   pose regressors: one for the whole building, one per building");
-        let rows = hierarchy(args, &data, &ds, &views_img, &predicted)?;
+        let rows = hierarchy(args, &data, &ds, &views_img, &predicted, &truth)?;
         page.section("Hierarchical localization");
         page.paragraph(
             "One pose regressor trained on every building, against one per building chosen by \
@@ -458,13 +458,15 @@ fn class_table(rows: &[ClassRow]) -> Table {
 }
 
 /// Trains the global and per-building pose regressors (reused when trained before) and
-/// measures them on the held-out walks, routed three ways.
+/// measures them on the held-out walks (`classes`: each frame's true class names), routed three
+/// ways.
 fn hierarchy(
     args: &PlaceSplitArgs,
     data: &Path,
     heldout: &NativeDataset,
     images: &[image::DynamicImage],
     predicted: &[PlacePrediction],
+    classes: &[[String; 3]],
 ) -> Result<Vec<HierarchyRow>> {
     let ds = NativeDataset::open(data)?;
     let labels = ds
@@ -509,24 +511,17 @@ fn hierarchy(
         .map(|img| global.view(img))
         .collect::<learn::Result<Vec<_>>>()?;
     let truth: Vec<geom::Pose> = heldout.trajectory.frames.iter().map(|f| f.pose).collect();
-    let true_building: Vec<String> = (0..truth.len())
-        .map(|i| {
-            let frame = heldout.frame_number(i).unwrap_or(i as u64);
-            heldout
-                .label(frame)
-                .map(|l| l.building.clone())
-                .unwrap_or_default()
-        })
+    let global_poses: Vec<geom::Pose> = global
+        .predict_batch(&views, 0)?
+        .into_iter()
+        .map(|e| e.pose)
         .collect();
-    let routed = |choice: &dyn Fn(usize) -> String| -> Result<Vec<geom::Pose>> {
-        // frames routed to a building without its own regressor keep the global estimate
-        let mut out: Vec<geom::Pose> = global
-            .predict_batch(&views, 0)?
-            .into_iter()
-            .map(|e| e.pose)
-            .collect();
+    // frame i through the regressor of building `choice[i]`; frames routed to a building
+    // without its own regressor keep the global estimate
+    let routed = |choice: &[&str]| -> Result<Vec<geom::Pose>> {
+        let mut out = global_poses.clone();
         for (b, loc) in &per_building {
-            let idx: Vec<usize> = (0..views.len()).filter(|&i| choice(i) == *b).collect();
+            let idx: Vec<usize> = (0..views.len()).filter(|&i| choice[i] == b).collect();
             let picked: Vec<_> = idx.iter().map(|&i| views[i].clone()).collect();
             for (i, est) in idx.iter().zip(loc.predict_batch(&picked, 0)?) {
                 out[*i] = est.pose;
@@ -534,13 +529,13 @@ fn hierarchy(
         }
         Ok(out)
     };
-    let global_poses: Vec<geom::Pose> = global
-        .predict_batch(&views, 0)?
-        .into_iter()
-        .map(|e| e.pose)
-        .collect();
-    let by_classifier = routed(&|i| predicted[i].building.0.clone())?;
-    let by_truth = routed(&|i| true_building[i].clone())?;
+    let by_classifier = routed(
+        &predicted
+            .iter()
+            .map(|p| p.building.0.as_str())
+            .collect::<Vec<_>>(),
+    )?;
+    let by_truth = routed(&classes.iter().map(|c| c[0].as_str()).collect::<Vec<_>>())?;
     [
         ("global", global_poses),
         ("routed", by_classifier),
