@@ -1,0 +1,2 @@
+//! Camera calibration: checkerboard corners, Zhang's method refined by Levenberg-Marquardt,
+//! OpenCV-compatible YAML.
