@@ -41,6 +41,10 @@ enum Command {
     Localize(cmd::localize::LocalizeArgs),
     /// Scene cuts (and fades, dissolves) in a video or image folder, by visual rhythm.
     Scenecut(cmd::scenecut::ScenecutArgs),
+    /// Camera intrinsics and distortion from checkerboard photos (OpenCV-compatible YAML).
+    Calibrate(cmd::calibrate::CalibrateArgs),
+    /// ArUco markers: detect them, print them, locate the camera from a marker map.
+    Markers(cmd::markers::MarkersArgs),
     /// Reproducible experiments (tables like a paper's, with an HTML report): `cuts`.
     Study(cmd::study::StudyArgs),
     /// Speed figures of each stage, beside the reference peer where one is installed.
@@ -59,6 +63,8 @@ fn main() -> ExitCode {
         Command::Localize(args) => cmd::localize::run(&args),
         Command::Scenecut(args) => cmd::scenecut::run(&args),
         Command::Study(args) => cmd::study::run(&args),
+        Command::Markers(args) => cmd::markers::run(&args),
+        Command::Calibrate(args) => cmd::calibrate::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

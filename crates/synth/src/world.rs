@@ -315,6 +315,39 @@ impl World {
         self.planes.push(p);
         self.planes.len() as PlaneId
     }
+
+    /// Hangs a flat picture (a printed marker, a photo) on a wall: a `width` x `height` metre
+    /// rectangle centred at `centre`, its image upright along the unit vectors `right` and `up`,
+    /// facing `right × up`. Returns the corners top-left, top-right, bottom-right, bottom-left
+    /// (the image's own corners, as a marker's). Keep it a millimetre or so in front of the wall
+    /// so depth ties never hide it.
+    pub fn add_wall_picture(
+        &mut self,
+        name: impl Into<String>,
+        image: Arc<image::RgbImage>,
+        centre: Point3<f32>,
+        right: Vector3<f32>,
+        up: Vector3<f32>,
+        size: [f32; 2],
+    ) -> [Point3<f32>; 4] {
+        let material = self.add_material(Material {
+            pattern: Pattern::Image(image),
+            ..Material::plain(name, [1.0; 3])
+        });
+        let (hx, hy) = (right * size[0] / 2.0, up * size[1] / 2.0);
+        let corners = [centre - hx + hy, centre + hx + hy, centre + hx - hy, centre - hx - hy];
+        // Image textures: uv in 0–1 with v = 0 at the image's top row.
+        let uv = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        for [a, b, c] in [[0, 3, 2], [0, 2, 1]] {
+            self.triangles.push(Triangle {
+                v: [corners[a], corners[b], corners[c]],
+                uv: [uv[a], uv[b], uv[c]],
+                material,
+                plane: 0,
+            });
+        }
+        corners
+    }
 }
 
 /// An appearance condition: the same building and trajectory under different circumstances, so

@@ -1,9 +1,11 @@
 //! One module per subcommand: a clap `Args` struct and a `run` function.
 
 pub mod bench;
+pub mod calibrate;
 pub mod demo;
 pub mod eval;
 pub mod localize;
+pub mod markers;
 pub mod parse;
 pub mod preprocess;
 pub mod scenecut;

@@ -2,6 +2,7 @@
 //! `DIR/report.html` with `--json` rows.
 
 pub(crate) mod cuts;
+mod markers_distance;
 mod place_split;
 mod render_types;
 mod sequence;
@@ -34,6 +35,9 @@ enum Study {
     /// against a split by recording session, with held-out walks under another appearance,
     /// per-class precision / recall and confusion matrices.
     PlaceSplit(place_split::PlaceSplitArgs),
+    /// Marker pose error against distance and viewing angle, for two camera resolutions, on
+    /// a marker rendered on a wall.
+    MarkersDistance(markers_distance::MarkersDistanceArgs),
 }
 
 /// Runs `indoorloc study`.
@@ -43,6 +47,7 @@ pub fn run(args: &StudyArgs) -> Result<()> {
         Study::Sequence(a) => sequence::run(a),
         Study::RenderTypes(a) => render_types::run(a),
         Study::PlaceSplit(a) => place_split::run(a),
+        Study::MarkersDistance(a) => markers_distance::run(a),
     }
 }
 
