@@ -3,6 +3,7 @@
 mod demo_cli;
 mod eval_cli;
 mod learn_cli;
+mod markers_cli;
 mod metrics_reference;
 mod preprocess_cli;
 mod scenecut_cli;

@@ -61,6 +61,10 @@ struct DetectArgs {
     /// Side of the markers' black square, metres (for poses).
     #[arg(long)]
     size: Option<f64>,
+    /// Move corners onto the sub-pixel edges of the black square (always on with --camera):
+    /// OpenCV's default corners sit half a pixel inside it.
+    #[arg(long)]
+    refine: bool,
     /// Print one JSON document instead of a table.
     #[arg(long)]
     json: bool,
@@ -158,7 +162,10 @@ fn detect(args: &DetectArgs) -> Result<()> {
     if let Some(s) = args.size {
         ensure!(s > 0.0 && s.is_finite(), "--size must be a positive number of metres");
     }
-    let params = DetectParams::default();
+    let params = DetectParams {
+        refine_edges: args.refine || camera.is_some(),
+        ..DetectParams::default()
+    };
     let mut images = Vec::new();
     for path in &args.images {
         let gray = markers::load_gray(path)?;
@@ -292,7 +299,8 @@ fn locate(args: &LocateArgs) -> Result<()> {
         (None, Some(n), _) | (None, None, Some(n)) => Dictionary::predefined(n)?,
         (None, None, None) => Dictionary::predefined("4x4_50")?,
     };
-    let params = DetectParams::default();
+    // Poses need the sub-pixel corners.
+    let params = DetectParams { refine_edges: true, ..DetectParams::default() };
     let mut images = Vec::new();
     for path in &args.images {
         let gray = markers::load_gray(path)?;

@@ -2,6 +2,7 @@
 //! installed, as a ratio measured in the same run.
 
 mod learn;
+mod markers;
 mod preprocess;
 mod scenecut;
 
@@ -35,6 +36,9 @@ pub enum Stage {
     /// Scene-cut detection frames/s on a 320x240 video, against PySceneDetect and decoding
     /// alone; hard-cut F1 on the shared clips beside PySceneDetect's.
     Scenecut,
+    /// ArUco detection ms per photo (DICT_6X6_250 photos of ../shared/data/aruco_real), one
+    /// thread and all, against OpenCV's ArucoDetector (aruco.py).
+    Markers,
 }
 
 /// Arguments of `indoorloc bench`.
@@ -142,6 +146,8 @@ struct BenchOutput {
     learn: Vec<learn::LearnFigures>,
     #[serde(skip_serializing_if = "Option::is_none")]
     scenecut: Option<scenecut::ScenecutFigures>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    markers: Vec<markers::MarkerFigures>,
 }
 
 /// Runs `indoorloc bench`.
@@ -158,6 +164,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             Stage::Train,
             Stage::Infer,
             Stage::Scenecut,
+            Stage::Markers,
         ],
     };
     let mut out = BenchOutput {
@@ -166,6 +173,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         preprocess: Vec::new(),
         learn: Vec::new(),
         scenecut: None,
+        markers: Vec::new(),
     };
     let (train, infer) = (
         stages.contains(&Stage::Train),
@@ -192,6 +200,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 )?
             }
             Stage::Train | Stage::Infer => {}
+            Stage::Markers => out.markers = markers::bench(peer_python(args))?,
             Stage::Scenecut => {
                 out.scenecut = Some(scenecut::bench(
                     args.video.as_deref(),
@@ -209,6 +218,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         if let Some(s) = &out.scenecut {
             text.push_str(&scenecut::table(s));
         }
+        text.push_str(&markers::table(&out.markers));
         if !out.render.is_empty() {
             text.push_str(&format!(
                 "{:<10}{:>10}{:>9}{:>10}{:>12}\n",
