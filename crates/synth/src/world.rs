@@ -335,7 +335,12 @@ impl World {
             ..Material::plain(name, [1.0; 3])
         });
         let (hx, hy) = (right * size[0] / 2.0, up * size[1] / 2.0);
-        let corners = [centre - hx + hy, centre + hx + hy, centre + hx - hy, centre - hx - hy];
+        let corners = [
+            centre - hx + hy,
+            centre + hx + hy,
+            centre + hx - hy,
+            centre - hx - hy,
+        ];
         // Image textures: uv in 0–1 with v = 0 at the image's top row.
         let uv = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
         for [a, b, c] in [[0, 3, 2], [0, 2, 1]] {

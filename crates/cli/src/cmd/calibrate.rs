@@ -63,13 +63,22 @@ struct CalibrateOutput {
     out: PathBuf,
 }
 
+/// A photo read: its file, its size and the board corners found in it.
+type Photo = (PathBuf, (u32, u32), Option<Vec<nalgebra::Point2<f64>>>);
+
 /// Runs `indoorloc calibrate`.
 pub fn run(args: &CalibrateArgs) -> Result<()> {
-    ensure!(args.square > 0.0 && args.square.is_finite(), "--square must be a positive length in metres");
+    ensure!(
+        args.square > 0.0 && args.square.is_finite(),
+        "--square must be a positive length in metres"
+    );
     let (cols, rows) = (args.board.0 as usize, args.board.1 as usize);
-    ensure!(cols >= 3 && rows >= 3, "--board {cols}x{rows}: at least 3x3 inner corners");
+    ensure!(
+        cols >= 3 && rows >= 3,
+        "--board {cols}x{rows}: at least 3x3 inner corners"
+    );
     let pb = crate::progress::bar(args.images.len() as u64, "images");
-    let found: Vec<(PathBuf, (u32, u32), Option<Vec<nalgebra::Point2<f64>>>)> = args
+    let found: Vec<Photo> = args
         .images
         .par_iter()
         .map(|path| {
@@ -97,8 +106,10 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         with_board.len(),
         found.len()
     );
-    let views: Vec<Vec<nalgebra::Point2<f64>>> =
-        with_board.iter().map(|&i| found[i].2.clone().unwrap_or_default()).collect();
+    let views: Vec<Vec<nalgebra::Point2<f64>>> = with_board
+        .iter()
+        .map(|&i| found[i].2.clone().unwrap_or_default())
+        .collect();
     let opts = CalibOptions {
         fix_k3: !args.k3,
         reject_outliers: !args.keep_all,
@@ -110,7 +121,12 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         .with_context(|| format!("{}: cannot write the camera", args.out.display()))?;
     let mut view_out: Vec<ViewOut> = found
         .iter()
-        .map(|(p, _, c)| ViewOut { image: p.clone(), found: c.is_some(), used: false, rms_px: None })
+        .map(|(p, _, c)| ViewOut {
+            image: p.clone(),
+            found: c.is_some(),
+            used: false,
+            rms_px: None,
+        })
         .collect();
     for (k, &i) in with_board.iter().enumerate() {
         view_out[i].used = cal.used[k];

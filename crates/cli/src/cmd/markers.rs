@@ -160,7 +160,10 @@ fn detect(args: &DetectArgs) -> Result<()> {
     let dict = args.dict.load()?;
     let camera = args.camera.as_deref().map(read_camera).transpose()?;
     if let Some(s) = args.size {
-        ensure!(s > 0.0 && s.is_finite(), "--size must be a positive number of metres");
+        ensure!(
+            s > 0.0 && s.is_finite(),
+            "--size must be a positive number of metres"
+        );
     }
     let params = DetectParams {
         refine_edges: args.refine || camera.is_some(),
@@ -177,10 +180,17 @@ fn detect(args: &DetectArgs) -> Result<()> {
             .map(|m| MarkerOut {
                 id: m.id,
                 corners: m.corners.map(|c| [round3(c.x), round3(c.y)]),
-                pose: camera.as_ref().zip(args.size).and_then(|(cam, size)| pose_of(m, size, cam)),
+                pose: camera
+                    .as_ref()
+                    .zip(args.size)
+                    .and_then(|(cam, size)| pose_of(m, size, cam)),
             })
             .collect();
-        images.push(ImageOut { image: path.clone(), markers, ms });
+        images.push(ImageOut {
+            image: path.clone(),
+            markers,
+            ms,
+        });
     }
     let out = DetectOutput {
         dictionary: dict.name().to_string(),
@@ -200,7 +210,12 @@ fn detect(args: &DetectArgs) -> Result<()> {
             format!("{:.2}", i.ms),
         ]);
     }
-    print_text(&format!("{}median {:.2} ms per image ({})\n", t.to_text(), out.ms_per_image, out.dictionary))
+    print_text(&format!(
+        "{}median {:.2} ms per image ({})\n",
+        t.to_text(),
+        out.ms_per_image,
+        out.dictionary
+    ))
 }
 
 fn pose_of(m: &Marker, size: f64, camera: &Camera) -> Option<PoseOut> {
@@ -234,12 +249,20 @@ fn generate(args: &GenerateArgs) -> Result<()> {
     let ids = parse_ids(&args.ids, dict.len() as u32)?;
     ensure!(args.cell_px >= 1, "--cell-px must be at least 1");
     ensure!(args.size_mm > 0.0, "--size-mm must be positive");
-    let files = markers::generate::write_markers(&dict, &ids, &args.out, args.cell_px, args.size_mm)?;
-    let out = GenerateOutput { dictionary: dict.name().to_string(), files };
+    let files =
+        markers::generate::write_markers(&dict, &ids, &args.out, args.cell_px, args.size_mm)?;
+    let out = GenerateOutput {
+        dictionary: dict.name().to_string(),
+        files,
+    };
     if args.json {
         return print_json(&out);
     }
-    let list: String = out.files.iter().map(|f| format!("{}\n", f.display())).collect();
+    let list: String = out
+        .files
+        .iter()
+        .map(|f| format!("{}\n", f.display()))
+        .collect();
     print_text(&list)
 }
 
@@ -300,13 +323,20 @@ fn locate(args: &LocateArgs) -> Result<()> {
         (None, None, None) => Dictionary::predefined("4x4_50")?,
     };
     // Poses need the sub-pixel corners.
-    let params = DetectParams { refine_edges: true, ..DetectParams::default() };
+    let params = DetectParams {
+        refine_edges: true,
+        ..DetectParams::default()
+    };
     let mut images = Vec::new();
     for path in &args.images {
         let gray = markers::load_gray(path)?;
         let found = markers::detect(&gray, &dict, &params);
         let known: std::collections::BTreeSet<u32> = map.markers.iter().map(|m| m.id).collect();
-        let unknown = found.iter().map(|m| m.id).filter(|id| !known.contains(id)).collect();
+        let unknown = found
+            .iter()
+            .map(|m| m.id)
+            .filter(|id| !known.contains(id))
+            .collect();
         let l = markers::locate(&found, &map, &camera);
         images.push(LocateImage {
             image: path.clone(),
@@ -314,23 +344,44 @@ fn locate(args: &LocateArgs) -> Result<()> {
             quaternion: l.as_ref().map(|l| l.pose.quat_wxyz()),
             sigma_pos_m: l.as_ref().map(|l| l.sigma_pos_m),
             sigma_rot_deg: l.as_ref().map(|l| l.sigma_rot_deg),
-            markers_used: l.as_ref().map(|l| l.markers_used.clone()).unwrap_or_default(),
-            markers_rejected: l.as_ref().map(|l| l.markers_rejected.clone()).unwrap_or_default(),
+            markers_used: l
+                .as_ref()
+                .map(|l| l.markers_used.clone())
+                .unwrap_or_default(),
+            markers_rejected: l
+                .as_ref()
+                .map(|l| l.markers_rejected.clone())
+                .unwrap_or_default(),
             markers_unknown: unknown,
             rms_px: l.as_ref().map(|l| l.rms_px),
             ambiguous: l.as_ref().is_some_and(|l| l.ambiguous),
         });
     }
-    let out = LocateOutput { located: images.iter().filter(|i| i.position.is_some()).count(), images };
+    let out = LocateOutput {
+        located: images.iter().filter(|i| i.position.is_some()).count(),
+        images,
+    };
     if args.json {
         return print_json(&out);
     }
     let mut t = report::Table::new(
         "Camera pose from markers",
-        ["image", "x (m)", "y (m)", "z (m)", "σ pos (m)", "used", "rejected"],
+        [
+            "image",
+            "x (m)",
+            "y (m)",
+            "z (m)",
+            "σ pos (m)",
+            "used",
+            "rejected",
+        ],
     );
     for i in &out.images {
-        let p = i.position.map_or(["-".to_string(), "-".into(), "-".into()], |p| p.map(|v| format!("{v:.3}")));
+        let p = i
+            .position
+            .map_or(["-".to_string(), "-".into(), "-".into()], |p| {
+                p.map(|v| format!("{v:.3}"))
+            });
         let [x, y, z] = p;
         t.push_row([
             i.image.display().to_string(),
@@ -342,7 +393,12 @@ fn locate(args: &LocateArgs) -> Result<()> {
             format!("{:?}", i.markers_rejected),
         ]);
     }
-    print_text(&format!("{}{} of {} images located\n", t.to_text(), out.located, out.images.len()))
+    print_text(&format!(
+        "{}{} of {} images located\n",
+        t.to_text(),
+        out.located,
+        out.images.len()
+    ))
 }
 
 #[cfg(test)]
@@ -355,7 +411,12 @@ mod tests {
         assert_eq!(parse_ids("1,5, 9", 50).unwrap(), vec![1, 5, 9]);
         assert_eq!(parse_ids("7", 50).unwrap(), vec![7]);
         assert!(parse_ids("3-1", 50).is_err());
-        assert!(parse_ids("49-50", 50).unwrap_err().to_string().contains("50"));
+        assert!(
+            parse_ids("49-50", 50)
+                .unwrap_err()
+                .to_string()
+                .contains("50")
+        );
         assert!(parse_ids("x", 50).is_err());
     }
 }

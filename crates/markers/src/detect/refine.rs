@@ -32,7 +32,9 @@ pub fn refine_corners(gray: &GrayImage, corners: &mut [Point2<f64>; 4]) {
     let original = *corners;
     for k in 0..4 {
         // Corner k lies on edge k-1 (into it) and edge k (out of it).
-        let (Some(a), Some(b)) = (&lines[(k + 3) % 4], &lines[k]) else { continue };
+        let (Some(a), Some(b)) = (&lines[(k + 3) % 4], &lines[k]) else {
+            continue;
+        };
         if let Some(p) = a.intersect(b) {
             if (p - original[k]).norm() <= MAX_SHIFT_PX {
                 corners[k] = p;
@@ -60,7 +62,12 @@ impl Line {
 }
 
 /// The edge from `a` to `b` fitted to the gradient peaks across it.
-fn fit_edge(gray: &GrayImage, a: Point2<f64>, b: Point2<f64>, centre: &Vector2<f64>) -> Option<Line> {
+fn fit_edge(
+    gray: &GrayImage,
+    a: Point2<f64>,
+    b: Point2<f64>,
+    centre: &Vector2<f64>,
+) -> Option<Line> {
     let d = b - a;
     let len = d.norm();
     if len < 4.0 {
@@ -87,7 +94,10 @@ fn fit_edge(gray: &GrayImage, a: Point2<f64>, b: Point2<f64>, centre: &Vector2<f
     }
     // Weighted total least squares: centroid and principal direction.
     let wsum: f64 = pts.iter().map(|(_, w)| w).sum();
-    let c = pts.iter().fold(Vector2::zeros(), |acc, (p, w)| acc + p.coords * *w) / wsum;
+    let c = pts
+        .iter()
+        .fold(Vector2::zeros(), |acc, (p, w)| acc + p.coords * *w)
+        / wsum;
     let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
     for (p, w) in &pts {
         let q = p.coords - c;
@@ -100,7 +110,10 @@ fn fit_edge(gray: &GrayImage, a: Point2<f64>, b: Point2<f64>, centre: &Vector2<f
     if dir.dot(&along) < 0.0 {
         dir = -dir;
     }
-    Some(Line { point: Point2::from(c), dir })
+    Some(Line {
+        point: Point2::from(c),
+        dir,
+    })
 }
 
 /// Offset along `normal` (pixels) of the dark-to-light edge near `p`, and its contrast; `None`
@@ -117,7 +130,7 @@ fn edge_offset(
     let profile: Vec<f64> = (0..=steps)
         .map(|i| {
             let s = -search + i as f64 * STEP_PX;
-            bilinear(gray, p.x + normal.x * s, p.y + normal.y * s).map(linear_light)
+            bilinear(gray, p.x + normal.x * s, p.y + normal.y * s)
         })
         .collect::<Option<_>>()?;
     let dark = (profile[0] + profile[1]) / 2.0;
@@ -140,10 +153,22 @@ fn edge_offset(
 /// mixes light linearly, so only there does a blurred edge keep its area.
 fn linear_light(v: f64) -> f64 {
     let c = v / 255.0;
-    255.0 * if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    255.0
+        * if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
 }
 
-/// Bilinear sample with (0, 0) at the centre of the top-left pixel; `None` outside the image.
+/// [`linear_light`] of every grey level, computed once.
+fn linear_lut() -> &'static [f64; 256] {
+    static LUT: std::sync::OnceLock<[f64; 256]> = std::sync::OnceLock::new();
+    LUT.get_or_init(|| std::array::from_fn(|v| linear_light(v as f64)))
+}
+
+/// Bilinear sample in linear light, with (0, 0) at the centre of the top-left pixel; `None`
+/// outside the image.
 fn bilinear(gray: &GrayImage, x: f64, y: f64) -> Option<f64> {
     let (w, h) = (gray.width() as f64, gray.height() as f64);
     if !(x >= 0.0 && y >= 0.0 && x <= w - 1.0 && y <= h - 1.0) {
@@ -152,8 +177,12 @@ fn bilinear(gray: &GrayImage, x: f64, y: f64) -> Option<f64> {
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
     let (x0, y0) = (x0 as u32, y0 as u32);
-    let (x1, y1) = ((x0 + 1).min(gray.width() - 1), (y0 + 1).min(gray.height() - 1));
-    let v = |x: u32, y: u32| f64::from(gray.get_pixel(x, y).0[0]);
+    let (x1, y1) = (
+        (x0 + 1).min(gray.width() - 1),
+        (y0 + 1).min(gray.height() - 1),
+    );
+    let lut = linear_lut();
+    let v = |x: u32, y: u32| lut[gray.get_pixel(x, y).0[0] as usize];
     Some(
         v(x0, y0) * (1.0 - fx) * (1.0 - fy)
             + v(x1, y0) * fx * (1.0 - fy)
@@ -166,12 +195,20 @@ fn bilinear(gray: &GrayImage, x: f64, y: f64) -> Option<f64> {
 mod tests {
     use super::*;
 
-    /// A dark square with exact sub-pixel edges, anti-aliased by area coverage.
+    /// A dark square with exact sub-pixel edges, anti-aliased by area coverage in linear light
+    /// and written sRGB-encoded, as a camera does.
     fn square(x0: f64, y0: f64, side: f64) -> GrayImage {
         GrayImage::from_fn(80, 80, |x, y| {
-            let cover = |p: f64, lo: f64, hi: f64| ((p + 0.5).min(hi) - (p - 0.5).max(lo)).clamp(0.0, 1.0);
+            let cover =
+                |p: f64, lo: f64, hi: f64| ((p + 0.5).min(hi) - (p - 0.5).max(lo)).clamp(0.0, 1.0);
             let c = cover(x as f64, x0, x0 + side) * cover(y as f64, y0, y0 + side);
-            image::Luma([(230.0 - 200.0 * c).round() as u8])
+            let linear = 0.8 * (1.0 - c) + 0.02 * c;
+            let srgb = if linear <= 0.003_130_8 {
+                12.92 * linear
+            } else {
+                1.055 * linear.powf(1.0 / 2.4) - 0.055
+            };
+            image::Luma([(255.0 * srgb).round() as u8])
         })
     }
 
@@ -188,14 +225,22 @@ mod tests {
         refine_corners(&img, &mut corners);
         let truth = [(19.8, 19.8), (49.8, 19.8), (49.8, 49.8), (19.8, 49.8)];
         for (c, t) in corners.iter().zip(truth) {
-            assert!((c.x - t.0).abs() < 0.1 && (c.y - t.1).abs() < 0.1, "{c} vs {t:?}");
+            assert!(
+                (c.x - t.0).abs() < 0.1 && (c.y - t.1).abs() < 0.1,
+                "{c} vs {t:?}"
+            );
         }
     }
 
     #[test]
     fn a_flat_image_leaves_the_corners_alone() {
         let img = GrayImage::from_pixel(40, 40, image::Luma([128]));
-        let orig = [Point2::new(5.0, 5.0), Point2::new(30.0, 5.0), Point2::new(30.0, 30.0), Point2::new(5.0, 30.0)];
+        let orig = [
+            Point2::new(5.0, 5.0),
+            Point2::new(30.0, 5.0),
+            Point2::new(30.0, 30.0),
+            Point2::new(5.0, 30.0),
+        ];
         let mut corners = orig;
         refine_corners(&img, &mut corners);
         assert_eq!(corners, orig);

@@ -84,7 +84,10 @@ pub fn table(rows: &[MarkerFigures]) -> String {
     );
     for r in rows {
         let opt = |v: Option<f64>, d: usize| v.map_or("-".into(), |v| format!("{v:.d$}"));
-        let name = r.image.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        let name = r
+            .image
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
         t.push_str(&format!(
             "{:<28}{:>8}{:>8}{:>10.2}{:>10.2}{:>10}{:>8}\n",
             name,
@@ -121,15 +124,29 @@ fn opencv(peer: &Peer, image: &Path) -> Result<(f64, usize)> {
     let out = Command::new(&peer.python)
         .arg(peer.dir.join("aruco.py"))
         .arg(image)
-        .args(["--dict", "DICT_6X6_250", "--repeat", &RUNS.to_string(), "--threads", "1"])
+        .args([
+            "--dict",
+            "DICT_6X6_250",
+            "--repeat",
+            &RUNS.to_string(),
+            "--threads",
+            "1",
+        ])
         .output()
         .context("running aruco.py")?;
     if !out.status.success() {
-        bail!("aruco.py failed: {}", String::from_utf8_lossy(&out.stderr).trim());
+        bail!(
+            "aruco.py failed: {}",
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
     }
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).context("aruco.py output")?;
-    let ms = v["median_ms_per_image"].as_f64().context("aruco.py printed no median_ms_per_image")?;
-    let n = v["n_markers"].as_u64().context("aruco.py printed no n_markers")? as usize;
+    let ms = v["median_ms_per_image"]
+        .as_f64()
+        .context("aruco.py printed no median_ms_per_image")?;
+    let n = v["n_markers"]
+        .as_u64()
+        .context("aruco.py printed no n_markers")? as usize;
     Ok((ms, n))
 }
 

@@ -127,13 +127,22 @@ struct Found {
 
 /// Runs `indoorloc study markers-distance`.
 pub fn run(args: &MarkersDistanceArgs) -> Result<()> {
-    ensure!(args.size > 0.0, "--size must be a positive number of metres");
-    ensure!(!args.distances.is_empty() && !args.angles.is_empty(), "no distances or angles");
+    ensure!(
+        args.size > 0.0,
+        "--size must be a positive number of metres"
+    );
+    ensure!(
+        !args.distances.is_empty() && !args.angles.is_empty(),
+        "no distances or angles"
+    );
     ensure!(
         args.distances.iter().all(|d| *d > 0.05 && *d < 13.0),
         "--distances must lie between 0.05 and 13 m (the room is 14 m deep)"
     );
-    ensure!(args.angles.iter().all(|a| a.abs() < 85.0), "--angles must lie within ±85°");
+    ensure!(
+        args.angles.iter().all(|a| a.abs() < 85.0),
+        "--angles must lie within ±85°"
+    );
     let dict = Dictionary::predefined(&args.dict)?;
     let trials = if args.quick { 3 } else { args.trials.max(1) };
     let id = 7.min(dict.len() as u32 - 1);
@@ -146,7 +155,12 @@ pub fn run(args: &MarkersDistanceArgs) -> Result<()> {
     let cameras: Vec<(String, Camera)> = args
         .resolutions
         .iter()
-        .map(|&(w, h)| Ok((format!("{w}x{h}"), Camera::from_hfov(w, h, HFOV_DEG.to_radians())?)))
+        .map(|&(w, h)| {
+            Ok((
+                format!("{w}x{h}"),
+                Camera::from_hfov(w, h, HFOV_DEG.to_radians())?,
+            ))
+        })
         .collect::<Result<_>>()?;
     let cells: Vec<(usize, f64, f64)> = (0..cameras.len())
         .flat_map(|c| {
@@ -156,7 +170,10 @@ pub fn run(args: &MarkersDistanceArgs) -> Result<()> {
         })
         .collect();
     let pb = crate::progress::bar((cells.len() * trials) as u64, "frames");
-    let params = DetectParams { refine_edges: true, ..DetectParams::default() };
+    let params = DetectParams {
+        refine_edges: true,
+        ..DetectParams::default()
+    };
     let mut examples = Vec::new();
     let mut rows = Vec::new();
     for (ci, &(c, distance, angle)) in cells.iter().enumerate() {
@@ -167,8 +184,19 @@ pub fn run(args: &MarkersDistanceArgs) -> Result<()> {
                 let seed = args.seed ^ ((ci * 1000 + t) as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
                 let keep = t == 0 && c == 0;
                 let out = one_trial(
-                    renderer, &scene, camera, args.supersample, &marker_pose, &dict, &params, id,
-                    args.size, distance, angle, seed, keep,
+                    renderer,
+                    &scene,
+                    camera,
+                    args.supersample,
+                    &marker_pose,
+                    &dict,
+                    &params,
+                    id,
+                    args.size,
+                    distance,
+                    angle,
+                    seed,
+                    keep,
                 );
                 pb.inc(1);
                 out
@@ -177,7 +205,10 @@ pub fn run(args: &MarkersDistanceArgs) -> Result<()> {
         let mut trials_out = Vec::new();
         for (trial, img) in results {
             if let Some(img) = img {
-                examples.push(Tile { label: format!("{distance} m, {angle}°"), image: img });
+                examples.push(Tile {
+                    label: format!("{distance} m, {angle}°"),
+                    image: img,
+                });
             }
             trials_out.push(trial);
         }
@@ -190,7 +221,13 @@ pub fn run(args: &MarkersDistanceArgs) -> Result<()> {
     let worst = rows
         .iter()
         .filter(|r| r.resolution == cameras[0].0 && r.distance_m <= 5.0)
-        .map(|r| if r.detected > 0.0 { r.pos_err_pct } else { f64::INFINITY })
+        .map(|r| {
+            if r.detected > 0.0 {
+                r.pos_err_pct
+            } else {
+                f64::INFINITY
+            }
+        })
         .fold(0.0, f64::max);
     write_report(&report, &rows, &examples, args, trials)?;
     let out = StudyOutput {
@@ -234,7 +271,11 @@ fn one_trial(
 ) -> Result<(Trial, Option<image::RgbImage>)> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let pose = camera_pose(marker_pose, distance, angle, &mut rng);
-    let opts = RenderOptions { mode: RenderMode::Textured, seed, ..RenderOptions::default() };
+    let opts = RenderOptions {
+        mode: RenderMode::Textured,
+        seed,
+        ..RenderOptions::default()
+    };
     let fine = camera.resized(camera.width * supersample, camera.height * supersample);
     let out = renderer.render(scene, &fine, &pose, &opts, &[])?;
     let rgb = downsample_linear(&out.rgb, supersample);
@@ -280,11 +321,19 @@ fn downsample_linear(img: &image::RgbImage, factor: u32) -> image::RgbImage {
     let to_linear: Vec<f32> = (0..256)
         .map(|v| {
             let c = v as f32 / 255.0;
-            if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+            if c <= 0.04045 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            }
         })
         .collect();
     let to_srgb = |l: f32| {
-        let c = if l <= 0.003_130_8 { 12.92 * l } else { 1.055 * l.powf(1.0 / 2.4) - 0.055 };
+        let c = if l <= 0.003_130_8 {
+            12.92 * l
+        } else {
+            1.055 * l.powf(1.0 / 2.4) - 0.055
+        };
         (c * 255.0).round().clamp(0.0, 255.0) as u8
     };
     let (w, h) = (img.width() / factor, img.height() / factor);
@@ -316,7 +365,9 @@ fn camera_pose(marker_pose: &Pose, distance: f64, angle: f64, rng: &mut ChaCha8R
     // Look at a point beside the marker: up to 8° off in each direction.
     let off = 8f64.to_radians();
     let aim = centre
-        + distance * (rng.random_range(-off..off)).tan() * (normal.cross(&Vector3::z()).normalize())
+        + distance
+            * (rng.random_range(-off..off)).tan()
+            * (normal.cross(&Vector3::z()).normalize())
         + Vector3::z() * distance * (rng.random_range(-off..off)).tan();
     let forward = (aim - position).normalize();
     let x = forward.cross(&Vector3::z()).normalize();
@@ -330,7 +381,10 @@ fn camera_pose(marker_pose: &Pose, distance: f64, angle: f64, rng: &mut ChaCha8R
 /// the world and the marker-to-world pose (OpenCV's marker frame: x right, y up, z out of the
 /// wall).
 fn room(marker: image::GrayImage, picture_m: f32) -> (World, Pose) {
-    let mut world = World { name: "marker test room".into(), ..World::default() };
+    let mut world = World {
+        name: "marker test room".into(),
+        ..World::default()
+    };
     let wall = world.add_material(Material {
         pattern: Pattern::Concrete,
         seed: 3,
@@ -350,12 +404,35 @@ fn room(marker: image::GrayImage, picture_m: f32) -> (World, Pose) {
     let p = Point3::new;
     // Each quad: corners counter-clockwise seen from inside the room.
     let quads = [
-        ([p(x0, y1, 0.0), p(x1, y1, 0.0), p(x1, y1, h), p(x0, y1, h)], wall), // back
-        ([p(x1, y0, 0.0), p(x0, y0, 0.0), p(x0, y0, h), p(x1, y0, h)], wall), // front
-        ([p(x0, y0, 0.0), p(x0, y1, 0.0), p(x0, y1, h), p(x0, y0, h)], wall), // left
-        ([p(x1, y1, 0.0), p(x1, y0, 0.0), p(x1, y0, h), p(x1, y1, h)], wall), // right
-        ([p(x0, y0, 0.0), p(x1, y0, 0.0), p(x1, y1, 0.0), p(x0, y1, 0.0)], floor),
-        ([p(x0, y1, h), p(x1, y1, h), p(x1, y0, h), p(x0, y0, h)], ceiling),
+        (
+            [p(x0, y1, 0.0), p(x1, y1, 0.0), p(x1, y1, h), p(x0, y1, h)],
+            wall,
+        ), // back
+        (
+            [p(x1, y0, 0.0), p(x0, y0, 0.0), p(x0, y0, h), p(x1, y0, h)],
+            wall,
+        ), // front
+        (
+            [p(x0, y0, 0.0), p(x0, y1, 0.0), p(x0, y1, h), p(x0, y0, h)],
+            wall,
+        ), // left
+        (
+            [p(x1, y1, 0.0), p(x1, y0, 0.0), p(x1, y0, h), p(x1, y1, h)],
+            wall,
+        ), // right
+        (
+            [
+                p(x0, y0, 0.0),
+                p(x1, y0, 0.0),
+                p(x1, y1, 0.0),
+                p(x0, y1, 0.0),
+            ],
+            floor,
+        ),
+        (
+            [p(x0, y1, h), p(x1, y1, h), p(x1, y0, h), p(x0, y0, h)],
+            ceiling,
+        ),
     ];
     for (q, material) in quads {
         // uv in metres along the surface: u along the first edge, v along the last.
@@ -370,21 +447,42 @@ fn room(marker: image::GrayImage, picture_m: f32) -> (World, Pose) {
             });
         }
     }
-    for (x, y) in [(-3.0, 4.0), (3.0, 4.0), (-3.0, 10.0), (3.0, 10.0), (0.0, 7.0)] {
-        world.lights.push(Light { position: p(x, y, h - 0.05), intensity: 0.8, on: true, fixture: None });
+    for (x, y) in [
+        (-3.0, 4.0),
+        (3.0, 4.0),
+        (-3.0, 10.0),
+        (3.0, 10.0),
+        (0.0, 7.0),
+    ] {
+        world.lights.push(Light {
+            position: p(x, y, h - 0.05),
+            intensity: 0.8,
+            on: true,
+            fixture: None,
+        });
     }
     // Marker frame: x right (seen from the room: world x), y up (world z), z into the room (-y).
     let (right, up) = (Vector3::x(), Vector3::z());
     let centre = p(0.0, y1 - 0.002, MARKER_HEIGHT_M);
     let rgb = image::DynamicImage::ImageLuma8(marker).to_rgb8();
-    world.add_wall_picture("aruco marker", Arc::new(rgb), centre, right, up, [picture_m; 2]);
+    world.add_wall_picture(
+        "aruco marker",
+        Arc::new(rgb),
+        centre,
+        right,
+        up,
+        [picture_m; 2],
+    );
     let rot = Matrix3::from_columns(&[
         right.cast::<f64>(),
         up.cast::<f64>(),
         right.cast::<f64>().cross(&up.cast::<f64>()),
     ]);
-    let pose = Pose::from_rt(&rot, [0.0, f64::from(y1) - 0.002, f64::from(MARKER_HEIGHT_M)])
-        .expect("an orthonormal marker frame");
+    let pose = Pose::from_rt(
+        &rot,
+        [0.0, f64::from(y1) - 0.002, f64::from(MARKER_HEIGHT_M)],
+    )
+    .expect("an orthonormal marker frame");
     (world, pose)
 }
 
@@ -394,7 +492,13 @@ fn summarise(resolution: &str, distance: f64, angle: f64, trials: &[Trial]) -> R
     let med = |f: fn(&Found) -> f64| {
         crate::output::median(&found.iter().map(|x| f(x)).collect::<Vec<_>>())
     };
-    let frac = |n: usize| if trials.is_empty() { 0.0 } else { n as f64 / trials.len() as f64 };
+    let frac = |n: usize| {
+        if trials.is_empty() {
+            0.0
+        } else {
+            n as f64 / trials.len() as f64
+        }
+    };
     Row {
         resolution: resolution.to_string(),
         distance_m: distance,
@@ -418,9 +522,17 @@ fn table(rows: &[Row]) -> Table {
     let mut t = Table::new(
         "Marker pose error against distance and viewing angle",
         [
-            "camera", "distance (m)", "angle (°)", "detected", "marker (px)", "range err (m)",
+            "camera",
+            "distance (m)",
+            "angle (°)",
+            "detected",
+            "marker (px)",
+            "range err (m)",
             "range bias (m)",
-            "lateral err (m)", "pos err (% dist)", "rot err (°)", "ambiguous",
+            "lateral err (m)",
+            "pos err (% dist)",
+            "rot err (°)",
+            "ambiguous",
         ],
     );
     for r in rows {
@@ -468,16 +580,25 @@ fn write_report(
         .collect();
     if points.len() >= 2 {
         let fig = report::scatter(
-            &format!("Position error against distance ({}, every angle)", rows[0].resolution),
+            &format!(
+                "Position error against distance ({}, every angle)",
+                rows[0].resolution
+            ),
             "distance (m)",
             "median position error (% of distance)",
             &points,
         );
-        page.figure(&fig, "One point per (distance, angle) cell, with the least-squares line.")?;
+        page.figure(
+            &fig,
+            "One point per (distance, angle) cell, with the least-squares line.",
+        )?;
     }
     if !examples.is_empty() {
         let sheet = report::contact_sheet("Example frames", examples, 4)?;
-        page.png(&sheet, "The first frame of each cell at the first resolution.");
+        page.png(
+            &sheet,
+            "The first frame of each cell at the first resolution.",
+        );
     }
     page.write(path)?;
     Ok(())
