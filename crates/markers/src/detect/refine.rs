@@ -26,8 +26,17 @@ const MAX_SHIFT_PX: f64 = 3.0;
 /// onto the sub-pixel intersections of its edges; corners whose edges cannot be fitted stay.
 pub fn refine_corners(gray: &GrayImage, corners: &mut [Point2<f64>; 4]) {
     let centre = corners.iter().fold(Vector2::zeros(), |a, c| a + c.coords) / 4.0;
+    let side = |k: usize| (corners[(k + 1) % 4] - corners[k % 4]).norm();
     let lines: Vec<Option<Line>> = (0..4)
-        .map(|k| fit_edge(gray, corners[k], corners[(k + 1) % 4], &centre))
+        .map(|k| {
+            // The black border is one cell thick across edge k: a sixth of the neighbouring
+            // edges' length for a 4x4 marker, less for larger ones. Searching well under a
+            // cell each way (a fourteenth: half a 4x4 cell) keeps the profile's inner end,
+            // with the bilinear footprint, inside the border at any viewing angle.
+            let across = side(k + 1).min(side(k + 3));
+            let search = (across / 14.0).clamp(1.0, SEARCH_PX);
+            fit_edge(gray, corners[k], corners[(k + 1) % 4], &centre, search)
+        })
         .collect();
     let original = *corners;
     for k in 0..4 {
@@ -61,12 +70,13 @@ impl Line {
     }
 }
 
-/// The edge from `a` to `b` fitted to the gradient peaks across it.
+/// The edge from `a` to `b` fitted to edge points found within `search` pixels across it.
 fn fit_edge(
     gray: &GrayImage,
     a: Point2<f64>,
     b: Point2<f64>,
     centre: &Vector2<f64>,
+    search: f64,
 ) -> Option<Line> {
     let d = b - a;
     let len = d.norm();
@@ -80,7 +90,6 @@ fn fit_edge(
     }
     // Samples away from the corners, where the neighbouring edges blur in.
     let n = ((len / 2.0) as usize).clamp(4, 40);
-    let search = (len / 12.0).clamp(1.0, SEARCH_PX);
     let mut pts: Vec<(Point2<f64>, f64)> = Vec::with_capacity(n);
     for i in 0..n {
         let t = 0.15 + 0.7 * (i as f64 + 0.5) / n as f64;

@@ -105,8 +105,11 @@ struct StudyOutput {
     dictionary: String,
     marker_size_m: f64,
     trials: usize,
-    /// Largest median position error (% of distance) at the first resolution up to 5 m.
+    /// Largest median position error (% of distance) at the first resolution up to 5 m, over
+    /// the cells where the marker was found.
     worst_pct_to_5m: f64,
+    /// Cells at the first resolution up to 5 m where the marker was never found.
+    missed_cells_to_5m: usize,
     report: PathBuf,
 }
 
@@ -221,14 +224,13 @@ pub fn run(args: &MarkersDistanceArgs) -> Result<()> {
     let worst = rows
         .iter()
         .filter(|r| r.resolution == cameras[0].0 && r.distance_m <= 5.0)
-        .map(|r| {
-            if r.detected > 0.0 {
-                r.pos_err_pct
-            } else {
-                f64::INFINITY
-            }
-        })
+        .filter(|r| r.detected > 0.0)
+        .map(|r| r.pos_err_pct)
         .fold(0.0, f64::max);
+    let missed = rows
+        .iter()
+        .filter(|r| r.resolution == cameras[0].0 && r.distance_m <= 5.0 && r.detected == 0.0)
+        .count();
     write_report(&report, &rows, &examples, args, trials)?;
     let out = StudyOutput {
         rows,
@@ -236,16 +238,19 @@ pub fn run(args: &MarkersDistanceArgs) -> Result<()> {
         marker_size_m: args.size,
         trials,
         worst_pct_to_5m: worst,
+        missed_cells_to_5m: missed,
         report,
     };
     if args.json {
         print_json(&out)
     } else {
         print_text(&format!(
-            "{}\nworst median position error up to 5 m at {}: {:.2} % of distance; report: {}\n",
+            "{}\nworst median position error up to 5 m at {}: {:.2} % of distance ({} cells never \
+             detected); report: {}\n",
             table(&out.rows).to_text(),
             cameras[0].0,
             out.worst_pct_to_5m,
+            out.missed_cells_to_5m,
             out.report.display()
         ))
     }
