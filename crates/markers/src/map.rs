@@ -276,19 +276,7 @@ fn covariance(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn camera() -> Camera {
-        Camera::new(
-            640,
-            480,
-            500.0,
-            500.0,
-            319.5,
-            239.5,
-            geom::Distortion::default(),
-        )
-        .unwrap()
-    }
+    use crate::pose::tests::camera;
 
     /// Three markers on a wall at y = 3 facing -y (towards a camera at the origin looking +y).
     fn wall_map() -> MarkerMap {

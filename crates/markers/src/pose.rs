@@ -327,11 +327,12 @@ pub(crate) fn reprojection_rms(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use nalgebra::UnitQuaternion;
 
-    fn camera() -> Camera {
+    /// A 640x480 pinhole camera without distortion, f = 500 px.
+    pub(crate) fn camera() -> Camera {
         Camera::new(
             640,
             480,
