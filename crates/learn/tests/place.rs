@@ -1,7 +1,7 @@
 //! The place classifier on the tiny procedural dataset with place labels made from the pose
 //! (which the image colour encodes): training, the stored accuracy, resuming, bad input.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

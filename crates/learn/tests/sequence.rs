@@ -2,7 +2,7 @@
 //! training, the stored validation figure, live stepping against whole runs, resuming, and
 //! refusing a sequence part whose CNN changed.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -1,6 +1,6 @@
 //! Speed of one training step of the small network, batch 32, 1x120x160, as `torch_apr.py
 //! --arch small` times it, and of one-image inference. Run with
-//! `cargo test --release -p learn --test speed -- --ignored --nocapture`; `indoorloc bench
+//! `cargo test --release -p learn --test tests speed -- --ignored --nocapture`; `indoorloc bench
 //! train|infer` gives the same figures beside PyTorch's.
 
 use learn::Arch;

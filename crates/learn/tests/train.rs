@@ -1,6 +1,6 @@
 //! Training, checkpoints and inference end to end on a tiny procedural dataset.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

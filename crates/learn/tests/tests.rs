@@ -1,0 +1,9 @@
+//! Integration tests of `learn`, one module per theme, in one test binary: each binary links
+//! burn, and one instead of five saves CI their link time and disk.
+
+mod common;
+mod place;
+mod real_photos;
+mod sequence;
+mod speed;
+mod train;
