@@ -267,8 +267,26 @@ fn bad_inputs_exit_2_naming_the_file_and_marker_free_images_give_empty_lists() -
     assert!(String::from_utf8_lossy(&out.stderr).contains("not-an-image.jpg"));
     let blank = dir.path().join("blank.png");
     image::GrayImage::from_pixel(320, 240, image::Luma([250])).save(&blank)?;
-    let v = json_of(&indoorloc(&["markers", "detect", s(&blank), "--json"])?)?;
-    assert_eq!(v["images"][0]["markers"], serde_json::json!([]));
+    // A real marker photo blurred past reading and one blown out to white: empty lists too.
+    let photo = image::open(shared_data("aruco_real/singlemarkersoriginal.jpg"))?.to_luma8();
+    let blurred = dir.path().join("blurred.png");
+    image::imageops::blur(&photo, 12.0).save(&blurred)?;
+    let blown = dir.path().join("overexposed.png");
+    image::GrayImage::from_fn(photo.width(), photo.height(), |x, y| {
+        image::Luma([photo.get_pixel(x, y).0[0].saturating_mul(8)])
+    })
+    .save(&blown)?;
+    let v = json_of(&indoorloc(&[
+        "markers",
+        "detect",
+        s(&blank),
+        s(&blurred),
+        s(&blown),
+        "--json",
+    ])?)?;
+    for k in 0..3 {
+        assert_eq!(v["images"][k]["markers"], serde_json::json!([]), "{v}");
+    }
     let map = dir.path().join("map.toml");
     std::fs::write(
         &map,
