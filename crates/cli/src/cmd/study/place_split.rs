@@ -49,10 +49,10 @@ pub struct PlaceSplitArgs {
     /// Override the number of held-out frames.
     #[arg(long)]
     heldout_frames: Option<usize>,
-    /// Override the view (default: place240; with --quick a 96x96 one).
+    /// Override the view (default: place240; with --quick a 64x48 one).
     #[arg(long)]
     view: Option<String>,
-    /// Override the number of epochs (default 12; 8 with --quick).
+    /// Override the number of epochs (default 12; 6 with --quick).
     #[arg(long)]
     epochs: Option<usize>,
     /// Appearance variant of the held-out walks.
@@ -133,7 +133,12 @@ pub fn run(args: &PlaceSplitArgs) -> Result<()> {
             eprintln!("{text}");
         }
     };
-    let frames = args.frames.unwrap_or(if args.quick { 2400 } else { 8000 });
+    // The quick run spends its budget on more walks at a small view rather than few walks at
+    // a large one: at the same compute (9600 frames at 64x48 for 6 epochs against 2400 at
+    // 96x96 for 8), the session split's validation accuracy rose from 69 / 63 / 36 % to
+    // 95 / 86 / 60 % (building / floor / corridor): a place unseen in training cannot be
+    // recognised at any resolution.
+    let frames = args.frames.unwrap_or(if args.quick { 9600 } else { 8000 });
     let heldout_frames = args
         .heldout_frames
         .unwrap_or(if args.quick { 600 } else { 1200 });
@@ -202,13 +207,13 @@ pub fn run(args: &PlaceSplitArgs) -> Result<()> {
         let mut cfg = PlaceConfig::new(&data, &model);
         cfg.view = Some(args.view.clone().unwrap_or_else(|| {
             if args.quick {
-                "resize=96x96,norm=imagenet"
+                "resize=64x48,norm=imagenet"
             } else {
                 "place240"
             }
             .into()
         }));
-        cfg.epochs = args.epochs.unwrap_or(if args.quick { 8 } else { 12 });
+        cfg.epochs = args.epochs.unwrap_or(if args.quick { 6 } else { 12 });
         cfg.split = split;
         // photometric jitter: the held-out walks are seen under other lighting
         cfg.augment = true;
