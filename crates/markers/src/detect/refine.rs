@@ -134,12 +134,12 @@ fn fit_edge(
 /// integrated from the inner end, runs out: exact for a blurred step, since blur keeps area,
 /// where the peak of a finite-difference gradient snaps towards pixel boundaries.
 ///
-/// The window is then moved until it is centred on the edge it finds (secant steps on
-/// `found − centre`). On a small marker a window around the contour pixel (half a pixel
-/// inside the edge) reaches barely a pixel past the edge, where the blur has not yet run out:
-/// the light end reads too dark, and the off-centre window turns that into an edge moved
-/// inwards (the marker looked 1–2 % too far at 20 px). Centred, the shortfalls at the two ends
-/// cancel.
+/// The first window is centred on `p`; it is then moved until it is centred on the edge it
+/// finds (secant steps on `found − centre`). On a small marker a window around the contour
+/// pixel (half a pixel inside the edge) reaches barely a pixel past the edge, where the blur
+/// has not yet run out: the light end reads too dark, and the off-centre window turns that
+/// into an edge moved inwards (the marker looked 1–2 % too far at 20 px). Centred, the
+/// shortfalls at the two ends cancel.
 fn edge_offset(
     gray: &GrayImage,
     p: &Point2<f64>,
@@ -162,7 +162,8 @@ fn edge_offset(
     Some(found)
 }
 
-/// [`edge_offset`] with the profile taken over `centre ± search` along `normal`.
+/// [`edge_offset`] with the profile taken over `centre ± search` along `normal` (rounded to
+/// whole sampling steps).
 fn edge_in_window(
     gray: &GrayImage,
     p: &Point2<f64>,
