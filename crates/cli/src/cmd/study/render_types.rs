@@ -8,8 +8,9 @@
 //! for real photos of the building. As BIM-PoseNet turns real photos into edges or gradient
 //! magnitude for the models trained on those renders, the test frames of the `edges` model
 //! go through Canny and those of the `gradmag` model through the renderer's own Sobel
-//! magnitude (`demo::scene::photo_as`). With `--quick` each mode trains on half the quick
-//! demo's frames, so that the four trainings stay within 15 minutes on two cores.
+//! magnitude (`demo::scene::photo_as`). With `--quick` each mode trains half the quick demo's
+//! steps (8000 frames for 4 epochs, views not jittered), so that the four trainings stay within
+//! 15 minutes on two cores.
 
 use crate::cmd::demo::{self, Evaluation, FrameResult};
 use crate::output::{print_json, print_text};
@@ -21,8 +22,10 @@ use report::{HtmlReport, Series, Table};
 use serde::Serialize;
 use std::path::PathBuf;
 
-/// Training frames per mode with `--quick` (half the quick demo's).
+/// Training frames per mode with `--quick`.
 const QUICK_TRAIN_FRAMES: usize = 8000;
+/// Epochs per mode with `--quick` (half the quick demo's).
+const QUICK_EPOCHS: usize = 4;
 
 /// The render modes compared, in table order.
 const MODES: [&str; 4] = ["shaded", "textured", "edges", "gradmag"];
@@ -88,10 +91,11 @@ pub fn run(args: &RenderTypesArgs) -> Result<()> {
     } else {
         args.modes.clone()
     };
-    // four trainings: --quick gives each half the demo's quick frames, to stay within 15 min
+    // four trainings: --quick gives each half the demo's quick steps, to stay within 15 min
     let mut scale = args.scale.clone();
-    if scale.quick && scale.train_frames.is_none() {
-        scale.train_frames = Some(QUICK_TRAIN_FRAMES);
+    if scale.quick {
+        scale.train_frames = scale.train_frames.or(Some(QUICK_TRAIN_FRAMES));
+        scale.epochs = scale.epochs.or(Some(QUICK_EPOCHS));
     }
     let mut rows = Vec::new();
     let mut curves = Vec::new();
@@ -106,7 +110,14 @@ pub fn run(args: &RenderTypesArgs) -> Result<()> {
         let demo_args = super::demo_args(
             &args.out.join(mode),
             &scale,
-            &["--render-mode", mode, "--test-variant", &args.test_variant],
+            &[
+                "--render-mode",
+                mode,
+                "--test-variant",
+                &args.test_variant,
+                "--augment",
+                "false",
+            ],
         )?;
         let prepared = demo::render_and_train(&demo_args, &say)?;
         let ds = NativeDataset::open(&prepared.data_dir)?;
