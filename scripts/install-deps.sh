@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # Installs the Debian/Ubuntu packages indoorloc builds against, only those missing (idempotent):
-# FFmpeg's libraries for video frame sources (crate ffmpeg-next), clang and pkg-config for its
-# bindings. Everything else comes from crates.io through cargo.
+# FFmpeg's libraries for video frame sources and camera devices (crate ffmpeg-next), clang and
+# pkg-config for its bindings, and Chromium for the dashboard's browser test.
+# Everything else comes from crates.io through cargo.
 set -euo pipefail
-packages=(pkg-config clang libclang-dev libavcodec-dev libavformat-dev libavutil-dev libswscale-dev)
+packages=(pkg-config clang libclang-dev libavcodec-dev libavformat-dev libavutil-dev libswscale-dev libavdevice-dev
+    chromium chromium-driver)
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

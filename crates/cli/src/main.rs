@@ -45,6 +45,8 @@ enum Command {
     Calibrate(cmd::calibrate::CalibrateArgs),
     /// ArUco markers: detect them, print them, locate the camera from a marker map.
     Markers(cmd::markers::MarkersArgs),
+    /// Live localization: fused poses over HTTP / WebSocket with a live dashboard, or JSON lines.
+    Serve(cmd::serve::ServeArgs),
     /// Reproducible experiments (tables like a paper's, with an HTML report): `cuts`.
     Study(cmd::study::StudyArgs),
     /// Speed figures of each stage, beside the reference peer where one is installed.
@@ -62,6 +64,7 @@ fn main() -> ExitCode {
         Command::Train(args) => cmd::train::run(&args),
         Command::Localize(args) => cmd::localize::run(&args),
         Command::Scenecut(args) => cmd::scenecut::run(&args),
+        Command::Serve(args) => cmd::serve::run(&args),
         Command::Study(args) => cmd::study::run(&args),
         Command::Markers(args) => cmd::markers::run(&args),
         Command::Calibrate(args) => cmd::calibrate::run(&args),

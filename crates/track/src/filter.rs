@@ -81,6 +81,9 @@ pub struct Fused {
     pub pose: Pose,
     /// `sqrt(trace Σ_pos)` of the state, metres.
     pub sigma_pos_m: f64,
+    /// Position variance per world axis, m² (the axes are filtered independently, so the
+    /// covariance is diagonal).
+    pub pos_var: [f64; 3],
     /// Rotation standard deviation of the state, radians.
     pub sigma_rot_rad: f64,
     /// What happened to the measurement.
@@ -198,6 +201,7 @@ impl PoseFilter {
         Fused {
             pose: m.pose,
             sigma_pos_m: (3.0 * r).sqrt(),
+            pos_var: [r; 3],
             sigma_rot_rad: rr.sqrt(),
             update: Update::Started,
         }
@@ -246,13 +250,35 @@ impl PoseFilter {
             }
             Update::Rejected
         };
+        state.output(update)
+    }
+
+    /// The state predicted to time `t` without a measurement (a frame no estimator could
+    /// read), reported as refused; `None` before the first measurement. The state itself does
+    /// not move, so the next measurement is weighed against the last one seen.
+    pub fn predict(&self, t: f64) -> Option<Fused> {
+        let mut state = self.state.clone()?;
+        let dt = (t - state.t).clamp(0.0, 10.0);
+        let q = self.cfg.accel_noise * self.cfg.accel_noise;
+        for a in &mut state.axes {
+            a.predict(dt, q);
+        }
+        state.rot_var += self.cfg.rot_noise * self.cfg.rot_noise * dt;
+        Some(state.output(Update::Rejected))
+    }
+}
+
+impl State {
+    fn output(&self, update: Update) -> Fused {
+        let pos_var = [self.axes[0].p[0], self.axes[1].p[0], self.axes[2].p[0]];
         Fused {
             pose: Pose::new(
-                state.rotation,
-                Vector3::new(state.axes[0].x, state.axes[1].x, state.axes[2].x),
+                self.rotation,
+                Vector3::new(self.axes[0].x, self.axes[1].x, self.axes[2].x),
             ),
-            sigma_pos_m: state.axes.iter().map(|a| a.p[0]).sum::<f64>().sqrt(),
-            sigma_rot_rad: state.rot_var.sqrt(),
+            sigma_pos_m: pos_var.iter().sum::<f64>().sqrt(),
+            pos_var,
+            sigma_rot_rad: self.rot_var.sqrt(),
             update,
         }
     }

@@ -1,9 +1,24 @@
-//! The live side of indoorloc: per-frame pose estimates in, a smooth, gated, cut-aware pose
-//! stream out.
+//! The live side of indoorloc: frames in, a smooth, gated, cut-aware pose stream with
+//! uncertainty out.
 //!
-//! So far: [`PoseFilter`], the temporal filter every live pipeline ends in. The frame source,
-//! the estimators and the server come on top of it.
+//! [`source`] opens what the frames come from (folders, videos, cameras, stdin, datasets),
+//! [`estimator`] turns a frame into a pose measurement (the pose network, ArUco markers),
+//! [`PoseFilter`] fuses measurements over time, and [`Pipeline`] runs them on two threads
+//! joined by a bounded queue that drops stale frames of live sources, measuring every stage
+//! ([`Metrics`]).
 
+mod error;
+pub mod estimator;
 mod filter;
+mod pipeline;
+mod queue;
+pub mod source;
+mod stats;
 
+pub use error::{Result, TrackError};
+pub use estimator::{Estimation, Estimator, MarkerEstimator, NetworkEstimator};
 pub use filter::{FilterConfig, Fused, Measurement, PoseFilter, Update};
+pub use pipeline::{Event, Latency, Pipeline, PipelineConfig, PoseEvent, RawEstimate, Truth};
+pub use queue::{FrameQueue, Overflow};
+pub use source::{Source, SourceFrame};
+pub use stats::{BUCKETS_S, Metrics, MetricsSnapshot, Stage, StageSnapshot};

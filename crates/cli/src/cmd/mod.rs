@@ -9,6 +9,7 @@ pub mod markers;
 pub mod parse;
 pub mod preprocess;
 pub mod scenecut;
+pub mod serve;
 pub mod study;
 pub mod synth;
 pub mod train;

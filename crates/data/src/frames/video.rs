@@ -163,7 +163,51 @@ impl VideoFile {
         // (`cam:1.mp4`) as a protocol.
         let input = ff::format::input(&format!("file:{utf8}"))
             .map_err(|e| err(format!("cannot open as a video: {e}")))?;
+        Self::from_input(path, input, size, fast, decode_threads)
+    }
 
+    /// Opens a camera device (`/dev/video0`) through FFmpeg's `v4l2` input. Frames come as the
+    /// camera delivers them; one decoding thread, since a frame in flight per thread is latency
+    /// a live camera cannot afford.
+    ///
+    /// # Errors
+    /// No such device, a device FFmpeg cannot open, or an FFmpeg built without `v4l2`; the
+    /// message names the device.
+    pub fn open_device(path: &Path) -> Result<Self> {
+        let err = |msg: String| DataError::Frames {
+            path: path.to_path_buf(),
+            msg,
+        };
+        std::fs::metadata(path).map_err(|e| DataError::io(path, e))?;
+        init().map_err(err)?;
+        ff::device::register_all();
+        let utf8 = path
+            .to_str()
+            .filter(|s| !s.contains('\0'))
+            .ok_or_else(|| err("FFmpeg needs a UTF-8 device name".into()))?;
+        let v4l2 = ff::device::input::video()
+            .find(|f| f.name() == "video4linux2,v4l2" || f.name() == "v4l2")
+            .ok_or_else(|| err("this FFmpeg has no v4l2 input".into()))?;
+        let input = match ff::format::open(utf8, &v4l2) {
+            Ok(ff::format::context::Context::Input(input)) => input,
+            Ok(_) => return Err(err("not an input device".into())),
+            Err(e) => return Err(err(format!("cannot open the camera: {e}"))),
+        };
+        Self::from_input(path, input, None, false, 1)
+    }
+
+    /// The decoder side of every opener: the best video stream of `input` and its decoder.
+    fn from_input(
+        path: &Path,
+        input: ff::format::context::Input,
+        size: Option<(u32, u32)>,
+        fast: bool,
+        decode_threads: usize,
+    ) -> Result<Self> {
+        let err = |msg: String| DataError::Frames {
+            path: path.to_path_buf(),
+            msg,
+        };
         let stream = input
             .streams()
             .best(ff::media::Type::Video)

@@ -8,7 +8,6 @@ use data::native::NativeDataset;
 use learn::TrainSummary;
 use report::{ErrorCdf, ErrorMap, Figure, HtmlReport, Series, Tile};
 use std::path::{Path, PathBuf};
-use synth::Variant;
 use synth::render::{RenderMode, RenderOptions, RenderScene, Renderer};
 
 /// What the page shows.
@@ -82,15 +81,8 @@ pub fn write(dir: &Path, input: &PageInput) -> Result<PathBuf> {
         "Share of test frames whose error is at most x.",
     )?;
 
-    let world = scene::world(input.scene, Variant::Normal)?;
-    let floor_plan: Vec<[f64; 4]> = world
-        .regions
-        .iter()
-        .filter(|g| {
-            g.place.building == input.scene.building && g.place.storey == input.scene.storey
-        })
-        .map(|g| [g.min[0], g.min[1], g.max[0], g.max[1]].map(f64::from))
-        .collect();
+    let floor_plan = scene::floor_plan(input.scene)?;
+    let world = scene::world(input.scene, synth::Variant::Normal)?;
     let map: Figure = ErrorMap {
         title: "Test walk seen from above, coloured by position error".into(),
         ground_truth: r.iter().map(|f| xy(&f.truth)).collect(),

@@ -187,6 +187,17 @@ fn sequences(plan: &ScenePlan) -> Result<Vec<Sequence>> {
     Ok(seqs)
 }
 
+/// The rooms and corridors of the plan's storey seen from above, `[x0, y0, x1, y1]` each.
+pub fn floor_plan(plan: &ScenePlan) -> Result<Vec<[f64; 4]>> {
+    let world = world(plan, Variant::Normal)?;
+    Ok(world
+        .regions
+        .iter()
+        .filter(|g| g.place.building == plan.building && g.place.storey == plan.storey)
+        .map(|g| [g.min[0], g.min[1], g.max[0], g.max[1]].map(f64::from))
+        .collect())
+}
+
 /// The camera of every sequence: one phone (or one robot camera) for the whole demo.
 pub fn camera(plan: &ScenePlan) -> Result<geom::Camera> {
     Ok(trajectory::camera_for(

@@ -69,6 +69,16 @@ pub struct Scale {
     epochs: Option<usize>,
 }
 
+impl Scale {
+    /// The demo's quick setup, nothing overridden.
+    pub(crate) fn quick() -> Scale {
+        Scale {
+            quick: true,
+            ..Scale::default()
+        }
+    }
+}
+
 /// The demo arguments a study trains with: the demo's own defaults at `scale`, in `out`, with
 /// `extra` demo options.
 pub(crate) fn demo_args(out: &Path, scale: &Scale, extra: &[&str]) -> Result<DemoArgs> {

@@ -1,0 +1,348 @@
+//! `indoorloc serve`: live localization. Frames from a source go through the pose network (and
+//! the marker map, when given) and the temporal filter; the fused poses go out over HTTP and
+//! WebSocket with a live dashboard (`serve` crate), or as JSON lines on stdout (`--jsonl`).
+//!
+//! `--demo` serves the default building's held-out walk in real time through the quick demo's
+//! model (trained first when `--demo-dir` has none), looping, with the storey's floor map.
+
+use crate::cmd::demo::{self, scene};
+use crate::cmd::localize::Split;
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use data::native::{NativeDataset, SplitName};
+use serve::{FloorMap, Hub, ServerConfig};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use track::{
+    Estimator, Event, MarkerEstimator, Metrics, NetworkEstimator, Pipeline, PipelineConfig,
+};
+
+/// Arguments of `indoorloc serve`.
+#[derive(Args, Debug, Clone)]
+pub struct ServeArgs {
+    /// Model folder (from `indoorloc train` or `demo`).
+    #[arg(long, value_name = "DIR")]
+    model: Option<PathBuf>,
+    /// Frames: an image folder, an image, a video, a camera (`/dev/video0`), a native dataset
+    /// folder (its `--split`, with ground truth), or raw frames on stdin
+    /// (`stdin:WIDTHxHEIGHT[:rgb|gray]`).
+    #[arg(long, value_name = "INPUT")]
+    source: Option<String>,
+    /// Address to listen on.
+    #[arg(long, default_value = "127.0.0.1")]
+    host: String,
+    /// Port to listen on (0: any free port, printed at start).
+    #[arg(long, default_value_t = 8080)]
+    port: u16,
+    /// Monte-Carlo-dropout passes per frame (0: one deterministic pass; the network's own
+    /// error scale still gives the uncertainty).
+    #[arg(long, default_value_t = 0)]
+    mc: usize,
+    /// Marker map (TOML, `indoorloc markers locate`'s): metric fixes from mapped ArUco
+    /// markers in view, fused with the network's poses. Needs `--camera`.
+    #[arg(long, value_name = "FILE")]
+    markers: Option<PathBuf>,
+    /// Camera intrinsics (OpenCV YAML from `indoorloc calibrate`) for the marker fixes.
+    #[arg(long, value_name = "FILE")]
+    camera: Option<PathBuf>,
+    /// ArUco dictionary of the markers (default: the map's, else 4x4_50).
+    #[arg(long)]
+    dict: Option<String>,
+    /// Play a file source at its recorded pace, as if live (a busy pipeline then drops stale
+    /// frames). Camera and stdin sources are always live.
+    #[arg(long)]
+    realtime: bool,
+    /// Frame rate of sources without timestamps (image folders, stdin).
+    #[arg(long)]
+    fps: Option<f64>,
+    /// Frames of a native dataset source.
+    #[arg(long, value_enum, default_value_t = Split::Test)]
+    split: Split,
+    /// Start the source over when it ends (for demos).
+    #[arg(long = "loop")]
+    loop_source: bool,
+    /// Stop after this many frames (per pass of the source).
+    #[arg(long)]
+    max_frames: Option<u64>,
+    /// Do not detect scene cuts (the filter then only starts over after repeated refusals).
+    #[arg(long)]
+    no_cuts: bool,
+    /// No server: write every event as a JSON line to stdout and exit at the end of the source.
+    #[arg(long)]
+    jsonl: bool,
+    /// Serve the default building's held-out walk in real time through the quick demo's model.
+    #[arg(long)]
+    demo: bool,
+    /// Folder of the demo (`indoorloc demo --quick --out DIR`) that `--demo` uses, trained
+    /// first when it holds no model.
+    #[arg(long, value_name = "DIR", default_value = "indoorloc-demo")]
+    demo_dir: PathBuf,
+    /// Publish the fused poses on ROS 2 as `geometry_msgs/PoseWithCovarianceStamped` on this
+    /// topic (needs indoorloc built with the `ros2` feature).
+    #[arg(long, value_name = "TOPIC")]
+    ros2: Option<String>,
+}
+
+/// What `serve` runs: the parts resolved from the arguments.
+struct Plan {
+    model: Option<PathBuf>,
+    source: String,
+    split: Option<SplitName>,
+    realtime: bool,
+    loop_source: bool,
+    map: FloorMap,
+}
+
+/// Runs `indoorloc serve`.
+pub fn run(args: &ServeArgs) -> Result<()> {
+    let resolved = plan(args)?;
+    // Open everything once up front, so a bad model, map or source fails before serving.
+    let first = build_pipeline(args, &resolved)?;
+    if args.jsonl {
+        return run_jsonl(first);
+    }
+    #[cfg(not(feature = "ros2"))]
+    if args.ros2.is_some() {
+        bail!("--ros2 needs indoorloc built with the `ros2` feature (cargo build --features ros2)");
+    }
+    let metrics = first.metrics();
+    let hub = Hub::new(Arc::clone(&metrics), resolved.map.clone());
+    #[cfg(feature = "ros2")]
+    let _ros = match &args.ros2 {
+        Some(topic) => Some(serve::ros2::Publisher::start(&hub, topic)?),
+        None => None,
+    };
+
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("cannot start the server's runtime")?;
+    let addr = format!("{}:{}", args.host, args.port);
+    let listener = runtime
+        .block_on(tokio::net::TcpListener::bind(&addr))
+        .with_context(|| format!("cannot listen on {addr}"))?;
+    let local = listener.local_addr()?;
+    eprintln!("indoorloc serve: dashboard at http://{local}/  (pose stream: ws://{local}/ws)");
+
+    let stop = first.stop_flag();
+    let feeder = {
+        let (hub, args) = (Arc::clone(&hub), args.clone());
+        // Later passes of a looping source rebuild the pipeline from the same arguments (the
+        // demo is prepared by then; planning again only reads its files).
+        let rebuild = move || build_pipeline(&args, &plan(&args)?);
+        let looping = resolved.loop_source;
+        std::thread::spawn(move || feed(first, rebuild, &hub, looping, metrics))
+    };
+    let shutdown = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    runtime
+        .block_on(serve::serve(
+            listener,
+            hub,
+            ServerConfig::default(),
+            shutdown,
+        ))
+        .context("server failed")?;
+    stop.store(true, Ordering::Relaxed);
+    let _ = feeder.join();
+    Ok(())
+}
+
+/// Runs `first` into the hub, and for a looping source one pipeline after another, with one
+/// set of figures.
+fn feed(
+    first: Pipeline,
+    rebuild: impl Fn() -> Result<Pipeline>,
+    hub: &Hub,
+    looping: bool,
+    metrics: Arc<Metrics>,
+) {
+    let mut pipeline = first;
+    loop {
+        let stop = pipeline.stop_flag();
+        let end = pipeline.run(|event, frame| {
+            // A looping source's own end is not the stream's end.
+            if !(looping && matches!(event, Event::End { .. })) {
+                hub.publish(event, frame);
+            }
+        });
+        if !looping || !matches!(end, Event::End { .. }) || stop.load(Ordering::Relaxed) {
+            return;
+        }
+        pipeline = match rebuild() {
+            Ok(p) => p.with_metrics(Arc::clone(&metrics)),
+            Err(e) => {
+                let message = format!("{e:#}");
+                hub.publish(
+                    &Event::Error {
+                        frame: None,
+                        message,
+                    },
+                    None,
+                );
+                return;
+            }
+        };
+    }
+}
+
+/// Resolves the model, source and map from the arguments (preparing the demo for `--demo`).
+fn plan(args: &ServeArgs) -> Result<Plan> {
+    let split = match args.split {
+        Split::All => None,
+        Split::Train => Some(SplitName::Train),
+        Split::Val => Some(SplitName::Val),
+        Split::Test => Some(SplitName::Test),
+    };
+    if args.demo {
+        let (model, data, scene) = prepare_demo(&args.demo_dir)?;
+        let map = demo_map(&scene, &data)?;
+        return Ok(Plan {
+            model: Some(args.model.clone().unwrap_or(model)),
+            source: args
+                .source
+                .clone()
+                .unwrap_or_else(|| data.to_string_lossy().into_owned()),
+            split: Some(SplitName::Test),
+            realtime: true,
+            loop_source: true,
+            map,
+        });
+    }
+    let Some(source) = args.source.clone() else {
+        bail!("serve needs --source INPUT (or --demo)");
+    };
+    if args.model.is_none() && args.markers.is_none() {
+        bail!("serve needs --model DIR, --markers FILE --camera FILE, or both");
+    }
+    let map = dataset_map(Path::new(&source), split)?;
+    Ok(Plan {
+        model: args.model.clone(),
+        source,
+        split,
+        realtime: args.realtime,
+        loop_source: args.loop_source,
+        map,
+    })
+}
+
+/// The estimators and source of `plan`, joined into a pipeline.
+fn build_pipeline(args: &ServeArgs, plan: &Plan) -> Result<Pipeline> {
+    let mut estimators: Vec<Box<dyn Estimator>> = Vec::new();
+    if let Some(dir) = &plan.model {
+        estimators.push(Box::new(NetworkEstimator::load(dir, args.mc)?));
+    }
+    match (&args.markers, &args.camera) {
+        (Some(map), Some(cam)) => {
+            let map = markers::MarkerMap::read(map)?;
+            let camera = crate::cmd::markers::read_camera(cam)?;
+            estimators.push(Box::new(MarkerEstimator::new(
+                map,
+                camera,
+                args.dict.as_deref(),
+            )?));
+        }
+        (Some(_), None) => bail!("--markers needs --camera FILE (the camera's intrinsics)"),
+        (None, Some(_)) => bail!("--camera is only used with --markers"),
+        (None, None) => {}
+    }
+    let source = track::source::open(&plan.source, plan.split, args.fps)?;
+    let cfg = PipelineConfig {
+        realtime: plan.realtime,
+        detect_cuts: !args.no_cuts,
+        max_frames: args.max_frames,
+        ..PipelineConfig::default()
+    };
+    Ok(Pipeline::new(source, estimators, cfg)?)
+}
+
+/// `--jsonl`: every event as a line on stdout; a failed source is an error (exit 2) after its
+/// error line.
+fn run_jsonl(pipeline: Pipeline) -> Result<()> {
+    let stop = pipeline.stop_flag();
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    let mut write_failed = None;
+    let end = pipeline.run(|event, _| {
+        if write_failed.is_some() {
+            return;
+        }
+        let line = serde_json::to_string(event).map_err(std::io::Error::other);
+        if let Err(e) = line.and_then(|l| writeln!(out, "{l}").and_then(|()| out.flush())) {
+            // A closed pipe ends the run quietly; the reader has what it wanted.
+            write_failed = Some(e);
+            stop.store(true, Ordering::Relaxed);
+        }
+    });
+    match (end, write_failed) {
+        (_, Some(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        (_, Some(e)) => Err(e).context("cannot write to stdout"),
+        (Event::Error { message, .. }, None) => bail!("the stream failed: {message}"),
+        _ => Ok(()),
+    }
+}
+
+/// The demo folder's model, dataset and plan, rendering and training the quick demo first
+/// when the folder has no model.
+fn prepare_demo(dir: &Path) -> Result<(PathBuf, PathBuf, scene::ScenePlan)> {
+    let (model, data) = (dir.join("model"), dir.join("data"));
+    let plan_file = data.join(scene::PLAN_TOML);
+    if model.join("model.toml").is_file() && plan_file.is_file() {
+        let text = std::fs::read_to_string(&plan_file)
+            .with_context(|| format!("{}: cannot read", plan_file.display()))?;
+        let plan: scene::ScenePlan = toml::from_str(&text)
+            .with_context(|| format!("{}: not a demo plan", plan_file.display()))?;
+        return Ok((model, data, plan));
+    }
+    eprintln!(
+        "indoorloc serve --demo: {} holds no trained demo; running `indoorloc demo --quick --out {}` first (a few minutes)",
+        dir.display(),
+        dir.display()
+    );
+    let args = crate::cmd::study::demo_args(dir, &crate::cmd::study::Scale::quick(), &[])?;
+    let prepared = demo::render_and_train(&args, &|t| eprintln!("{t}"))?;
+    Ok((
+        prepared.model_dir.clone(),
+        prepared.data_dir.clone(),
+        prepared.scene().clone(),
+    ))
+}
+
+/// The demo storey's rooms and the test walk's path.
+fn demo_map(plan: &scene::ScenePlan, data: &Path) -> Result<FloorMap> {
+    let mut map = dataset_map(data, Some(SplitName::Test))?;
+    map.rects = scene::floor_plan(plan)?;
+    map.title = format!(
+        "default building {}, storey {}: held-out walk",
+        plan.building, plan.storey
+    );
+    Ok(map)
+}
+
+/// For a native dataset source, its frames' path (the ground truth) as the map; else an empty
+/// map (the dashboard then frames the trail itself).
+fn dataset_map(source: &Path, split: Option<SplitName>) -> Result<FloorMap> {
+    if !source.join(data::native::DATASET_TOML).is_file() {
+        return Ok(FloorMap::default());
+    }
+    let ds = NativeDataset::open(source)?;
+    let index = match split {
+        Some(s) => ds.split_frames(s),
+        None => (0..ds.trajectory.frames.len()).collect(),
+    };
+    Ok(FloorMap {
+        title: source.display().to_string(),
+        rects: Vec::new(),
+        path: index
+            .iter()
+            .map(|&i| {
+                let p = ds.trajectory.frames[i].pose.position();
+                [p[0], p[1]]
+            })
+            .collect(),
+    })
+}

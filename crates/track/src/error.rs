@@ -1,0 +1,52 @@
+//! Errors of the live pipeline; every message names the source, model or map it is about.
+
+use std::path::PathBuf;
+
+/// Result type of `track`.
+pub type Result<T, E = TrackError> = std::result::Result<T, E>;
+
+/// What can go wrong between a frame source and a pose stream.
+#[derive(Debug, thiserror::Error)]
+pub enum TrackError {
+    /// Reading frames or a dataset.
+    #[error(transparent)]
+    Data(#[from] data::DataError),
+    /// Loading or running the pose network.
+    #[error(transparent)]
+    Learn(#[from] learn::LearnError),
+    /// Reading a marker map or dictionary.
+    #[error(transparent)]
+    Markers(#[from] markers::MarkersError),
+    /// The scene-cut detector.
+    #[error(transparent)]
+    Cut(#[from] scenecut::CutError),
+    /// A frame source that cannot be opened or read.
+    #[error("{source_name}: {msg}")]
+    Source {
+        /// The source as the user named it.
+        source_name: String,
+        /// What is wrong.
+        msg: String,
+    },
+    /// An I/O error on a named file.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The error.
+        source: std::io::Error,
+    },
+    /// Settings that do not fit together.
+    #[error("{0}")]
+    Config(String),
+}
+
+impl TrackError {
+    /// A source error.
+    pub fn source(name: impl Into<String>, msg: impl Into<String>) -> TrackError {
+        TrackError::Source {
+            source_name: name.into(),
+            msg: msg.into(),
+        }
+    }
+}

@@ -1,0 +1,141 @@
+//! Estimators: what turns one frame into a pose measurement for the filter.
+//!
+//! - [`NetworkEstimator`]: the pose network of a checkpoint folder, with Monte-Carlo-dropout
+//!   passes for its uncertainty (or one deterministic pass plus the network's own error scale).
+//! - [`MarkerEstimator`]: ArUco markers of a marker map seen by a calibrated camera: a metric
+//!   fix whenever a mapped marker is in view, with the covariance of the corner fit.
+//!
+//! Each estimator reports what it measured and how sure it is; the filter weighs them by that.
+
+use crate::error::Result;
+use crate::filter::Measurement;
+use geom::{Camera, Pose};
+use image::{DynamicImage, GrayImage, RgbImage};
+use learn::Localizer;
+use markers::{DetectParams, Dictionary, MarkerMap};
+use std::path::Path;
+
+/// One estimator's output for a frame (time is the pipeline's to fill in).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimation {
+    /// The estimated camera-to-world pose.
+    pub pose: Pose,
+    /// `sqrt(trace Σ_pos)`, metres.
+    pub sigma_pos_m: f64,
+    /// Rotation standard deviation, radians.
+    pub sigma_rot_rad: f64,
+}
+
+impl Estimation {
+    /// The filter's measurement at time `t`.
+    pub fn at(&self, t: f64) -> Measurement {
+        Measurement {
+            t,
+            pose: self.pose,
+            sigma_pos_m: self.sigma_pos_m,
+            sigma_rot_rad: self.sigma_rot_rad,
+        }
+    }
+}
+
+/// Something that estimates the camera pose from one frame.
+pub trait Estimator: Send {
+    /// Short name for the pose stream and the metrics (`network`, `markers`).
+    fn name(&self) -> &'static str;
+    /// The pose seen in `image`, or `None` when this estimator sees nothing to go on (no marker
+    /// in view).
+    fn estimate(&mut self, image: &RgbImage) -> Result<Option<Estimation>>;
+}
+
+/// The pose network of a checkpoint folder.
+pub struct NetworkEstimator {
+    loc: Localizer,
+    mc_passes: usize,
+}
+
+impl NetworkEstimator {
+    /// Loads the model in `dir`; `mc_passes` dropout passes per frame (0: one deterministic
+    /// pass).
+    pub fn load(dir: &Path, mc_passes: usize) -> Result<NetworkEstimator> {
+        Ok(NetworkEstimator {
+            loc: Localizer::load(dir)?,
+            mc_passes,
+        })
+    }
+
+    /// The loaded model.
+    pub fn localizer(&self) -> &Localizer {
+        &self.loc
+    }
+}
+
+impl Estimator for NetworkEstimator {
+    fn name(&self) -> &'static str {
+        "network"
+    }
+
+    fn estimate(&mut self, image: &RgbImage) -> Result<Option<Estimation>> {
+        // The view wants a DynamicImage; the clone of a 160x120 frame costs microseconds.
+        let e = self
+            .loc
+            .predict(&DynamicImage::ImageRgb8(image.clone()), self.mc_passes)?;
+        Ok(Some(Estimation {
+            pose: e.pose,
+            sigma_pos_m: e.sigma_pos_m,
+            sigma_rot_rad: e.sigma_rot_deg.to_radians(),
+        }))
+    }
+}
+
+/// Metric fixes from the mapped ArUco markers in view.
+pub struct MarkerEstimator {
+    map: MarkerMap,
+    camera: Camera,
+    dict: Dictionary,
+    params: DetectParams,
+    gray: GrayImage,
+}
+
+impl MarkerEstimator {
+    /// Markers of `map` (of dictionary `dict`, else the map's own, else `4x4_50`) seen by
+    /// `camera`.
+    pub fn new(map: MarkerMap, camera: Camera, dict: Option<&str>) -> Result<MarkerEstimator> {
+        let name = dict
+            .map(str::to_string)
+            .or_else(|| map.dictionary.clone())
+            .unwrap_or_else(|| "4x4_50".to_string());
+        Ok(MarkerEstimator {
+            dict: Dictionary::predefined(&name)?,
+            map,
+            camera,
+            // Poses need the sub-pixel corners.
+            params: DetectParams {
+                refine_edges: true,
+                ..DetectParams::default()
+            },
+            gray: GrayImage::new(1, 1),
+        })
+    }
+}
+
+impl Estimator for MarkerEstimator {
+    fn name(&self) -> &'static str {
+        "markers"
+    }
+
+    fn estimate(&mut self, image: &RgbImage) -> Result<Option<Estimation>> {
+        if self.gray.dimensions() != image.dimensions() {
+            self.gray = GrayImage::new(image.width(), image.height());
+        }
+        imgproc::view::rgb_to_gray(image, &mut self.gray)
+            .map_err(|e| crate::TrackError::Config(format!("marker view: {e}")))?;
+        let found = markers::detect(&self.gray, &self.dict, &self.params);
+        Ok(
+            markers::locate(&found, &self.map, &self.camera).map(|l| Estimation {
+                pose: l.pose,
+                sigma_pos_m: l.sigma_pos_m,
+                sigma_rot_rad: l.sigma_rot_deg.to_radians(),
+            }),
+        )
+    }
+}

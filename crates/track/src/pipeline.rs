@@ -1,0 +1,517 @@
+//! The live pipeline: a reader thread pulls frames from the [`Source`] (at their own pace when
+//! `realtime`), a bounded [`FrameQueue`] hands them over (dropping stale frames of live
+//! sources), and the estimation thread runs the cut detector, every [`Estimator`] and the
+//! [`PoseFilter`], and hands each fused pose to a sink.
+//!
+//! The sink sees [`Event`]s: a pose per processed frame, then `end` or `error`. Every stage's
+//! time goes into the shared [`Metrics`].
+
+use crate::error::{Result, TrackError};
+use crate::estimator::{Estimation, Estimator};
+use crate::filter::{FilterConfig, Fused, PoseFilter, Update};
+use crate::queue::{FrameQueue, Overflow};
+use crate::source::{Source, SourceFrame};
+use crate::stats::{Metrics, Stage};
+use geom::Pose;
+use image::RgbImage;
+use serde::Serialize;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// Settings of a pipeline run.
+#[derive(Clone, Debug)]
+pub struct PipelineConfig {
+    /// The temporal filter.
+    pub filter: FilterConfig,
+    /// Frames that may wait for the estimators.
+    pub queue: usize,
+    /// What a full queue does; `None`: drop stale frames of live or real-time sources, wait
+    /// for file sources read as fast as possible.
+    pub overflow: Option<Overflow>,
+    /// Read frames at their recorded pace (a file played as if live).
+    pub realtime: bool,
+    /// Detect scene cuts and reset the filter at each.
+    pub detect_cuts: bool,
+    /// Stop after this many frames.
+    pub max_frames: Option<u64>,
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        PipelineConfig {
+            filter: FilterConfig::default(),
+            queue: 2,
+            overflow: None,
+            realtime: false,
+            detect_cuts: true,
+            max_frames: None,
+        }
+    }
+}
+
+/// One estimator's raw output for a frame.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RawEstimate {
+    /// Which estimator.
+    pub estimator: &'static str,
+    /// Camera centre, metres.
+    pub position: [f64; 3],
+    /// Rotation, `w, x, y, z`.
+    pub quaternion: [f64; 4],
+    /// `sqrt(trace Σ_pos)`, metres.
+    pub sigma_pos_m: f64,
+    /// Rotation standard deviation, degrees.
+    pub sigma_rot_deg: f64,
+}
+
+/// Milliseconds each stage took for one frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Latency {
+    /// Reading and decoding.
+    pub read: f64,
+    /// Waiting for the estimators.
+    pub queue: f64,
+    /// Estimators and cut detector.
+    pub estimate: f64,
+    /// The filter.
+    pub filter: f64,
+    /// Read to output.
+    pub total: f64,
+}
+
+/// A ground-truth pose, where the source has one.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Truth {
+    /// Camera centre, metres.
+    pub position: [f64; 3],
+    /// Rotation, `w, x, y, z`.
+    pub quaternion: [f64; 4],
+}
+
+/// The fused pose of one frame.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PoseEvent {
+    /// The frame's index in the source.
+    pub frame: u64,
+    /// The frame's name (file stem, dataset frame name).
+    pub name: String,
+    /// Time of the frame, seconds from the first.
+    pub t: f64,
+    /// Fused camera centre, metres.
+    pub position: [f64; 3],
+    /// Fused rotation, `w, x, y, z`.
+    pub quaternion: [f64; 4],
+    /// `sqrt(trace Σ_pos)` of the fused state, metres.
+    pub sigma_pos_m: f64,
+    /// Rotation standard deviation of the fused state, degrees.
+    pub sigma_rot_deg: f64,
+    /// Position covariance (row-major 3x3, m²).
+    pub covariance_pos: [f64; 9],
+    /// What the filter did with the last measurement: `started`, `fused`, `rejected`; `coasted`
+    /// when no estimator saw anything.
+    pub update: &'static str,
+    /// Whether a scene cut was detected at this frame (the filter started over).
+    pub cut: bool,
+    /// Every estimator's own output.
+    pub measurements: Vec<RawEstimate>,
+    /// Ground truth, for sources that have it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truth: Option<Truth>,
+    /// Per-stage latency.
+    pub latency_ms: Latency,
+    /// Frames dropped so far (live sources under load).
+    pub dropped: u64,
+}
+
+impl PoseEvent {
+    /// The fused pose.
+    pub fn pose(&self) -> Pose {
+        pose_of(self.position, self.quaternion)
+    }
+
+    /// The first estimator's raw pose, if any estimator saw the frame.
+    pub fn raw_pose(&self) -> Option<Pose> {
+        self.measurements
+            .first()
+            .map(|m| pose_of(m.position, m.quaternion))
+    }
+
+    /// The true pose.
+    pub fn truth_pose(&self) -> Option<Pose> {
+        self.truth.map(|t| pose_of(t.position, t.quaternion))
+    }
+}
+
+fn pose_of(p: [f64; 3], q: [f64; 4]) -> Pose {
+    let q = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+        q[0], q[1], q[2], q[3],
+    ));
+    Pose::new(q, nalgebra::Vector3::new(p[0], p[1], p[2]))
+}
+
+/// What the pipeline tells its sink.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum Event {
+    /// A fused pose.
+    Pose(PoseEvent),
+    /// The source ended normally.
+    End {
+        /// Frames processed.
+        frames: u64,
+        /// Frames dropped under load.
+        dropped: u64,
+    },
+    /// The source or an estimator failed; the stream ends.
+    Error {
+        /// The frame the failure came at, where known.
+        frame: Option<u64>,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// What travels from the reader to the estimators.
+enum Item {
+    Frame {
+        frame: SourceFrame,
+        read_at: Instant,
+        read_s: f64,
+    },
+    Failed(TrackError),
+}
+
+/// A source, its estimators and the filter, ready to run.
+pub struct Pipeline {
+    source: Box<dyn Source>,
+    estimators: Vec<Box<dyn Estimator>>,
+    cfg: PipelineConfig,
+    metrics: Arc<Metrics>,
+    stop: Arc<AtomicBool>,
+}
+
+impl Pipeline {
+    /// A pipeline from `source` through `estimators` (at least one).
+    pub fn new(
+        source: Box<dyn Source>,
+        estimators: Vec<Box<dyn Estimator>>,
+        cfg: PipelineConfig,
+    ) -> Result<Pipeline> {
+        if estimators.is_empty() {
+            return Err(TrackError::Config(
+                "the pipeline needs an estimator (a model, a marker map or both)".into(),
+            ));
+        }
+        Ok(Pipeline {
+            source,
+            estimators,
+            cfg,
+            metrics: Arc::new(Metrics::default()),
+            stop: Arc::new(AtomicBool::new(false)),
+        })
+    }
+
+    /// Counts into `metrics` instead of the pipeline's own (a server that runs one pipeline
+    /// after another keeps one set of figures).
+    pub fn with_metrics(mut self, metrics: Arc<Metrics>) -> Pipeline {
+        self.metrics = metrics;
+        self
+    }
+
+    /// The run's counters and latencies, to read while it runs.
+    pub fn metrics(&self) -> Arc<Metrics> {
+        Arc::clone(&self.metrics)
+    }
+
+    /// Setting this flag stops the run after the frame in hand.
+    pub fn stop_flag(&self) -> Arc<AtomicBool> {
+        Arc::clone(&self.stop)
+    }
+
+    /// Runs to the end of the source (or the stop flag), handing every event and the frame it
+    /// belongs to to `sink`. The last event is `End` or `Error`, which is also returned.
+    pub fn run(self, mut sink: impl FnMut(&Event, Option<&RgbImage>)) -> Event {
+        let Pipeline {
+            mut source,
+            mut estimators,
+            cfg,
+            metrics,
+            stop,
+        } = self;
+        let overflow = cfg.overflow.unwrap_or(if source.is_live() || cfg.realtime {
+            Overflow::DropOldest
+        } else {
+            Overflow::Block
+        });
+        let queue = Arc::new(FrameQueue::new(cfg.queue, overflow));
+        let reader = {
+            let (queue, metrics, stop) =
+                (Arc::clone(&queue), Arc::clone(&metrics), Arc::clone(&stop));
+            let (realtime, max_frames) = (cfg.realtime, cfg.max_frames);
+            std::thread::spawn(move || {
+                read_frames(&mut *source, &queue, &metrics, &stop, realtime, max_frames);
+            })
+        };
+        let mut worker = Worker::new(&cfg, &metrics);
+        let mut last = None;
+        while let Some(item) = queue.pop() {
+            match item {
+                Item::Frame {
+                    frame,
+                    read_at,
+                    read_s,
+                } => match worker.process(&mut estimators, &frame, read_at, read_s) {
+                    Ok(event) => {
+                        last = Some(frame.frame.index);
+                        sink(&event, Some(&frame.frame.image));
+                    }
+                    Err(e) => {
+                        worker.failure = Some(Event::Error {
+                            frame: Some(frame.frame.index),
+                            message: e.to_string(),
+                        });
+                        break;
+                    }
+                },
+                Item::Failed(e) => {
+                    worker.failure = Some(Event::Error {
+                        frame: last.map(|f| f + 1),
+                        message: e.to_string(),
+                    });
+                    break;
+                }
+            }
+            if stop.load(Ordering::Relaxed) {
+                break;
+            }
+        }
+        queue.close();
+        stop.store(true, Ordering::Relaxed);
+        if reader.join().is_err() && worker.failure.is_none() {
+            worker.failure = Some(Event::Error {
+                frame: None,
+                message: "the frame reader stopped unexpectedly".into(),
+            });
+        }
+        let end = worker.failure.take().unwrap_or(Event::End {
+            frames: worker.processed,
+            dropped: metrics.frames_dropped.load(Ordering::Relaxed),
+        });
+        sink(&end, None);
+        end
+    }
+}
+
+/// The reader thread's loop.
+fn read_frames(
+    source: &mut dyn Source,
+    queue: &FrameQueue<Item>,
+    metrics: &Metrics,
+    stop: &AtomicBool,
+    realtime: bool,
+    max_frames: Option<u64>,
+) {
+    let start = Instant::now();
+    let mut first_t = None;
+    let mut n = 0u64;
+    while !stop.load(Ordering::Relaxed) && max_frames.is_none_or(|m| n < m) {
+        let read_at = Instant::now();
+        let item = match source.next_frame() {
+            None => break,
+            Some(Err(e)) => Item::Failed(e),
+            Some(Ok(frame)) => {
+                let read_s = read_at.elapsed().as_secs_f64();
+                if realtime {
+                    let t = frame.frame.t.unwrap_or(0.0);
+                    let due =
+                        start + Duration::from_secs_f64((t - *first_t.get_or_insert(t)).max(0.0));
+                    if let Some(wait) = due.checked_duration_since(Instant::now()) {
+                        std::thread::sleep(wait);
+                    }
+                }
+                metrics.record(Stage::Read, read_s);
+                Metrics::count(&metrics.frames_read);
+                n += 1;
+                Item::Frame {
+                    frame,
+                    // A paced frame counts from when it is due, not from when it was decoded.
+                    read_at: Instant::now() - Duration::from_secs_f64(read_s),
+                    read_s,
+                }
+            }
+        };
+        let failed = matches!(item, Item::Failed(_));
+        match queue.push(item) {
+            None => break,
+            Some(dropped) => {
+                metrics
+                    .frames_dropped
+                    .fetch_add(dropped as u64, Ordering::Relaxed);
+            }
+        }
+        if failed {
+            break;
+        }
+    }
+    queue.close();
+}
+
+/// The estimation side: cut detector, estimators, filter.
+struct Worker<'a> {
+    filter: PoseFilter,
+    cuts: Option<CutWatch>,
+    metrics: &'a Metrics,
+    processed: u64,
+    failure: Option<Event>,
+}
+
+impl<'a> Worker<'a> {
+    fn new(cfg: &PipelineConfig, metrics: &'a Metrics) -> Worker<'a> {
+        Worker {
+            filter: PoseFilter::new(cfg.filter),
+            cuts: cfg.detect_cuts.then(CutWatch::default),
+            metrics,
+            processed: 0,
+            failure: None,
+        }
+    }
+
+    fn process(
+        &mut self,
+        estimators: &mut [Box<dyn Estimator>],
+        sf: &SourceFrame,
+        read_at: Instant,
+        read_s: f64,
+    ) -> Result<Event> {
+        let started = Instant::now();
+        let queue_s = (started - read_at).as_secs_f64() - read_s;
+        let frame = &sf.frame;
+        let t = frame.t.unwrap_or(0.0);
+        let cut = match &mut self.cuts {
+            Some(c) => c.push(frame.index, &frame.image)?,
+            None => false,
+        };
+        let mut raw: Vec<(&'static str, Estimation)> = Vec::with_capacity(estimators.len());
+        for e in estimators.iter_mut() {
+            if let Some(est) = e.estimate(&frame.image)? {
+                raw.push((e.name(), est));
+            }
+        }
+        let estimated = Instant::now();
+        if cut {
+            self.filter.reset();
+            Metrics::count(&self.metrics.cuts);
+        }
+        let mut fused: Option<Fused> = None;
+        for (_, est) in &raw {
+            let f = self.filter.push(&est.at(t));
+            if f.update == Update::Rejected {
+                Metrics::count(&self.metrics.rejected);
+            }
+            fused = Some(f);
+        }
+        let (fused, update) = match fused {
+            Some(f) => (Some(f), update_name(f.update)),
+            None => (self.filter.predict(t), "coasted"),
+        };
+        let done = Instant::now();
+        let (estimate_s, filter_s) = (
+            (estimated - started).as_secs_f64(),
+            (done - estimated).as_secs_f64(),
+        );
+        let total_s = (done - read_at).as_secs_f64();
+        for (stage, s) in [
+            (Stage::Queue, queue_s.max(0.0)),
+            (Stage::Estimate, estimate_s),
+            (Stage::Filter, filter_s),
+            (Stage::Total, total_s),
+        ] {
+            self.metrics.record(stage, s);
+        }
+        self.processed += 1;
+        Metrics::count(&self.metrics.poses);
+        let Some(fused) = fused else {
+            return Err(TrackError::Config(format!(
+                "frame {}: no estimator saw anything and the filter has no state yet",
+                frame.index
+            )));
+        };
+        let ms = |s: f64| s * 1e3;
+        Ok(Event::Pose(PoseEvent {
+            frame: frame.index,
+            name: frame.name.clone(),
+            t,
+            position: fused.pose.position(),
+            quaternion: fused.pose.quat_wxyz(),
+            sigma_pos_m: fused.sigma_pos_m,
+            sigma_rot_deg: fused.sigma_rot_rad.to_degrees(),
+            covariance_pos: diag(fused.pos_var),
+            update,
+            cut,
+            measurements: raw
+                .iter()
+                .map(|(name, e)| RawEstimate {
+                    estimator: name,
+                    position: e.pose.position(),
+                    quaternion: e.pose.quat_wxyz(),
+                    sigma_pos_m: e.sigma_pos_m,
+                    sigma_rot_deg: e.sigma_rot_rad.to_degrees(),
+                })
+                .collect(),
+            truth: sf.truth.map(|p| Truth {
+                position: p.position(),
+                quaternion: p.quat_wxyz(),
+            }),
+            latency_ms: Latency {
+                read: ms(read_s),
+                queue: ms(queue_s.max(0.0)),
+                estimate: ms(estimate_s),
+                filter: ms(filter_s),
+                total: ms(total_s),
+            },
+            dropped: self.metrics.frames_dropped.load(Ordering::Relaxed),
+        }))
+    }
+}
+
+fn update_name(u: Update) -> &'static str {
+    match u {
+        Update::Started => "started",
+        Update::Fused => "fused",
+        Update::Rejected => "rejected",
+    }
+}
+
+fn diag(v: [f64; 3]) -> [f64; 9] {
+    [v[0], 0.0, 0.0, 0.0, v[1], 0.0, 0.0, 0.0, v[2]]
+}
+
+/// The streaming cut detector on thumbnails of the frames.
+#[derive(Default)]
+struct CutWatch {
+    detector: Option<scenecut::Detector>,
+    thumb: RgbImage,
+}
+
+impl CutWatch {
+    /// Feeds a frame; whether a cut was decided now. The detector decides a few frames after
+    /// the cut itself (its window), so the filter starts over a little late; gating covers the
+    /// frames in between.
+    fn push(&mut self, index: u64, image: &RgbImage) -> Result<bool> {
+        let (w, h) = image.dimensions();
+        if self.detector.is_none() {
+            let cfg = scenecut::Config::default();
+            let (tw, th) = cfg.thumb_size(w, h);
+            self.thumb = RgbImage::new(tw, th);
+            self.detector = Some(scenecut::Detector::new(cfg, tw, th)?);
+        }
+        let Some(det) = &mut self.detector else {
+            return Ok(false);
+        };
+        imgproc::view::resize_rgb(image, &mut self.thumb)
+            .map_err(|e| TrackError::Config(format!("cut thumbnail of frame {index}: {e}")))?;
+        let events = det.push(index, self.thumb.as_raw())?;
+        Ok(events.iter().any(|e| matches!(e, scenecut::Event::Cut(_))))
+    }
+}
