@@ -7,6 +7,7 @@ mod markers_cli;
 mod metrics_reference;
 mod preprocess_cli;
 mod scenecut_cli;
+mod serve_cli;
 mod study_cli;
 mod synth_cli;
 mod util;

@@ -232,6 +232,7 @@ fn plan(args: &ServeArgs) -> Result<Plan> {
 
 /// The estimators and source of `plan`, joined into a pipeline.
 fn build_pipeline(args: &ServeArgs, plan: &Plan) -> Result<Pipeline> {
+    let source = track::source::open(&plan.source, plan.split, args.fps)?;
     let mut estimators: Vec<Box<dyn Estimator>> = Vec::new();
     if let Some(dir) = &plan.model {
         estimators.push(Box::new(NetworkEstimator::load(dir, args.mc)?));
@@ -250,7 +251,6 @@ fn build_pipeline(args: &ServeArgs, plan: &Plan) -> Result<Pipeline> {
         (None, Some(_)) => bail!("--camera is only used with --markers"),
         (None, None) => {}
     }
-    let source = track::source::open(&plan.source, plan.split, args.fps)?;
     let cfg = PipelineConfig {
         realtime: plan.realtime,
         detect_cuts: !args.no_cuts,

@@ -6,6 +6,7 @@ mod markers_distance;
 mod place_split;
 mod render_types;
 mod sequence;
+mod track;
 
 use crate::cmd::demo::DemoArgs;
 use anyhow::Result;
@@ -28,6 +29,8 @@ enum Study {
     /// Single-frame network against the CNN+LSTM sequence model on its features: median
     /// errors, frame-to-frame jitter and live latency on the held-out walk.
     Sequence(sequence::SequenceArgs),
+    /// The live pipeline's fused track against the raw network on the held-out walk.
+    Track(track::TrackArgs),
     /// Train on each synthetic render mode (shaded, textured, edges, gradmag), test on a
     /// differently textured photo-like walk: synthetic-to-real transfer, as BIM-PoseNet.
     RenderTypes(render_types::RenderTypesArgs),
@@ -45,6 +48,7 @@ pub fn run(args: &StudyArgs) -> Result<()> {
     match &args.study {
         Study::Cuts(a) => cuts::run(a),
         Study::Sequence(a) => sequence::run(a),
+        Study::Track(a) => track::run(a),
         Study::RenderTypes(a) => render_types::run(a),
         Study::PlaceSplit(a) => place_split::run(a),
         Study::MarkersDistance(a) => markers_distance::run(a),
