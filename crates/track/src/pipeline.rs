@@ -154,8 +154,8 @@ fn pose_of(p: [f64; 3], q: [f64; 4]) -> Pose {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "event", rename_all = "snake_case")]
 pub enum Event {
-    /// A fused pose.
-    Pose(PoseEvent),
+    /// A fused pose (boxed: it is ten times the size of the other events).
+    Pose(Box<PoseEvent>),
     /// The source ended normally.
     End {
         /// Frames processed.
@@ -216,6 +216,12 @@ impl Pipeline {
     /// after another keeps one set of figures).
     pub fn with_metrics(mut self, metrics: Arc<Metrics>) -> Pipeline {
         self.metrics = metrics;
+        self
+    }
+
+    /// Stops on `stop` instead of the pipeline's own flag (one flag for a run of pipelines).
+    pub fn with_stop_flag(mut self, stop: Arc<AtomicBool>) -> Pipeline {
+        self.stop = stop;
         self
     }
 
@@ -287,7 +293,6 @@ impl Pipeline {
             }
         }
         queue.close();
-        stop.store(true, Ordering::Relaxed);
         if reader.join().is_err() && worker.failure.is_none() {
             worker.failure = Some(Event::Error {
                 frame: None,
@@ -438,7 +443,7 @@ impl<'a> Worker<'a> {
             )));
         };
         let ms = |s: f64| s * 1e3;
-        Ok(Event::Pose(PoseEvent {
+        Ok(Event::Pose(Box::new(PoseEvent {
             frame: frame.index,
             name: frame.name.clone(),
             t,
@@ -471,7 +476,7 @@ impl<'a> Worker<'a> {
                 total: ms(total_s),
             },
             dropped: self.metrics.frames_dropped.load(Ordering::Relaxed),
-        }))
+        })))
     }
 }
 

@@ -147,8 +147,10 @@ pub fn run(args: &ServeArgs) -> Result<()> {
             shutdown,
         ))
         .context("server failed")?;
+    // The pipeline stops after the frame in hand; a live source that sends nothing more
+    // would keep it waiting, so the process ends without joining it.
     stop.store(true, Ordering::Relaxed);
-    let _ = feeder.join();
+    drop(feeder);
     Ok(())
 }
 

@@ -5,6 +5,7 @@ mod learn;
 mod markers;
 mod preprocess;
 mod scenecut;
+mod serve;
 
 use crate::cmd::eval::{EvalArgs, evaluate};
 use crate::output::{print_json, print_text};
@@ -39,6 +40,10 @@ pub enum Stage {
     /// ArUco detection ms per photo (DICT_6X6_250 photos of ../shared/data/aruco_real), one
     /// thread and all, against OpenCV's ArucoDetector (aruco.py).
     Markers,
+    /// The live pipeline's frames/s and p99 latency on the demo's held-out walk (MC off and
+    /// on), and the server under many WebSocket clients (not in the default run: it needs a
+    /// trained demo, `--demo-dir`).
+    Serve,
 }
 
 /// Arguments of `indoorloc bench`.
@@ -73,6 +78,22 @@ pub struct BenchArgs {
     /// Timed single-image inferences per input size and thread count in the infer benchmark.
     #[arg(long, default_value_t = 30)]
     infer_runs: usize,
+    /// Demo folder (`indoorloc demo --quick --out DIR`) whose model and held-out walk the
+    /// serve benchmark runs.
+    #[arg(long, value_name = "DIR", default_value = "indoorloc-demo")]
+    demo_dir: PathBuf,
+    /// MC-dropout passes of the serve benchmark's second throughput run.
+    #[arg(long, default_value_t = 16)]
+    mc: usize,
+    /// WebSocket clients of the serve benchmark's load test.
+    #[arg(long, default_value_t = 50)]
+    clients: usize,
+    /// Seconds of the serve benchmark's load test.
+    #[arg(long, default_value_t = 60.0)]
+    seconds: f64,
+    /// Frames per second the load test plays the walk at.
+    #[arg(long, default_value_t = 30.0)]
+    load_fps: f64,
     /// Print one JSON document instead of a table.
     #[arg(long)]
     json: bool,
@@ -148,6 +169,8 @@ struct BenchOutput {
     scenecut: Option<scenecut::ScenecutFigures>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     markers: Vec<markers::MarkerFigures>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    serve: Option<serve::ServeFigures>,
 }
 
 /// Runs `indoorloc bench`.
@@ -174,6 +197,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         learn: Vec::new(),
         scenecut: None,
         markers: Vec::new(),
+        serve: None,
     };
     let (train, infer) = (
         stages.contains(&Stage::Train),
@@ -201,6 +225,15 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             }
             Stage::Train | Stage::Infer => {}
             Stage::Markers => out.markers = markers::bench(peer_python(args))?,
+            Stage::Serve => {
+                out.serve = Some(serve::bench(
+                    &args.demo_dir,
+                    args.mc,
+                    args.clients,
+                    args.seconds,
+                    args.load_fps,
+                )?)
+            }
             Stage::Scenecut => {
                 out.scenecut = Some(scenecut::bench(
                     args.video.as_deref(),
@@ -219,6 +252,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             text.push_str(&scenecut::table(s));
         }
         text.push_str(&markers::table(&out.markers));
+        if let Some(s) = &out.serve {
+            text.push_str(&serve::table(s));
+        }
         if !out.render.is_empty() {
             text.push_str(&format!(
                 "{:<10}{:>10}{:>9}{:>10}{:>12}\n",

@@ -113,7 +113,7 @@ pub fn run(args: &TrackArgs) -> Result<()> {
         let started = std::time::Instant::now();
         let end = pipeline.run(|e, _| {
             if let Event::Pose(p) = e {
-                poses.push(p.clone());
+                poses.push(PoseEvent::clone(p));
             }
         });
         let seconds = started.elapsed().as_secs_f64();
