@@ -63,10 +63,9 @@ async fn client(socket: WebSocket, app: App) {
     let timeout = app.cfg.send_timeout;
     let ending = if let Some(last) = ended {
         // The stream is over already: say how it ended.
-        if send(&mut tx, timeout, Message::Text(last.text.clone())).await {
-            Ending::Stream(is_error(&last))
-        } else {
-            Ending::Gone
+        match send(&mut tx, timeout, Message::Text(last.text.clone())).await {
+            Sent::Yes => Ending::Stream(is_error(&last)),
+            _ => Ending::Gone,
         }
     } else {
         let mut ping = tokio::time::interval(app.cfg.ping_interval);
@@ -75,8 +74,9 @@ async fn client(socket: WebSocket, app: App) {
             tokio::select! {
                 msg = feed.recv() => match msg {
                     Ok(b) => {
-                        if !send(&mut tx, timeout, Message::Text(b.text.clone())).await {
-                            break Ending::Dropped("send timed out");
+                        let sent = send(&mut tx, timeout, Message::Text(b.text.clone())).await;
+                        if sent != Sent::Yes {
+                            break failed(sent);
                         }
                         if b.terminal {
                             break Ending::Stream(is_error(&b));
@@ -90,8 +90,9 @@ async fn client(socket: WebSocket, app: App) {
                     if silent > app.cfg.client_timeout {
                         break Ending::Dropped("no answer to pings");
                     }
-                    if !send(&mut tx, timeout, Message::Ping(Default::default())).await {
-                        break Ending::Dropped("send timed out");
+                    let sent = send(&mut tx, timeout, Message::Ping(Default::default())).await;
+                    if sent != Sent::Yes {
+                        break failed(sent);
                     }
                 }
                 _ = &mut reader => break Ending::Gone,
@@ -126,9 +127,31 @@ async fn client(socket: WebSocket, app: App) {
     hub.clients.fetch_sub(1, Ordering::Relaxed);
 }
 
-/// Sends `m` within `timeout`; whether it went.
-async fn send(tx: &mut SplitSink<WebSocket, Message>, timeout: Duration, m: Message) -> bool {
-    matches!(tokio::time::timeout(timeout, tx.send(m)).await, Ok(Ok(())))
+/// How a send went.
+#[derive(PartialEq)]
+enum Sent {
+    Yes,
+    /// The connection is closed or broken: the client left.
+    Gone,
+    /// The send did not finish within the timeout: the client is not reading.
+    TimedOut,
+}
+
+/// Sends `m` within `timeout`.
+async fn send(tx: &mut SplitSink<WebSocket, Message>, timeout: Duration, m: Message) -> Sent {
+    match tokio::time::timeout(timeout, tx.send(m)).await {
+        Ok(Ok(())) => Sent::Yes,
+        Ok(Err(_)) => Sent::Gone,
+        Err(_) => Sent::TimedOut,
+    }
+}
+
+/// Why a feed ends when a send did not go.
+fn failed(s: Sent) -> Ending {
+    match s {
+        Sent::TimedOut => Ending::Dropped("send timed out"),
+        _ => Ending::Gone,
+    }
 }
 
 fn is_error(b: &Broadcast) -> bool {

@@ -111,7 +111,9 @@ pub fn run(args: &ServeArgs) -> Result<()> {
     let hub = Hub::new(Arc::clone(&metrics), resolved.map.clone());
     #[cfg(feature = "ros2")]
     let _ros = match &args.ros2 {
-        Some(topic) => Some(serve::ros2::Publisher::start(&hub, topic)?),
+        Some(topic) => {
+            Some(serve::ros2::Publisher::start(&hub, topic).map_err(anyhow::Error::msg)?)
+        }
         None => None,
     };
 
