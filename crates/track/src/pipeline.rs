@@ -125,29 +125,23 @@ pub struct PoseEvent {
 }
 
 impl PoseEvent {
-    /// The fused pose.
-    pub fn pose(&self) -> Pose {
-        pose_of(self.position, self.quaternion)
+    /// The fused pose (`None` only for a quaternion of zero length, which the filter never
+    /// makes).
+    pub fn pose(&self) -> Option<Pose> {
+        Pose::from_t_wxyz(self.position, self.quaternion).ok()
     }
 
     /// The first estimator's raw pose, if any estimator saw the frame.
     pub fn raw_pose(&self) -> Option<Pose> {
-        self.measurements
-            .first()
-            .map(|m| pose_of(m.position, m.quaternion))
+        let m = self.measurements.first()?;
+        Pose::from_t_wxyz(m.position, m.quaternion).ok()
     }
 
     /// The true pose.
     pub fn truth_pose(&self) -> Option<Pose> {
-        self.truth.map(|t| pose_of(t.position, t.quaternion))
+        let t = self.truth?;
+        Pose::from_t_wxyz(t.position, t.quaternion).ok()
     }
-}
-
-fn pose_of(p: [f64; 3], q: [f64; 4]) -> Pose {
-    let q = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
-        q[0], q[1], q[2], q[3],
-    ));
-    Pose::new(q, nalgebra::Vector3::new(p[0], p[1], p[2]))
 }
 
 /// What the pipeline tells its sink.

@@ -128,8 +128,8 @@ pub fn run(args: &TrackArgs) -> Result<()> {
                 .iter()
                 .filter_map(|p| Some((truth(p)?, p.raw_pose()?))),
         );
-        let fused = Scored::of(poses.iter().filter_map(|p| Some((truth(p)?, p.pose()))));
-        if raw.pos.len() != poses.len() || poses.is_empty() {
+        let fused = Scored::of(poses.iter().filter_map(|p| Some((truth(p)?, p.pose()?))));
+        if raw.pos.len() != poses.len() || fused.pos.len() != poses.len() || poses.is_empty() {
             bail!(
                 "the test walk gave {} poses, {} with a raw estimate",
                 poses.len(),
