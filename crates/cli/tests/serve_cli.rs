@@ -2,22 +2,11 @@
 //! against the raw network, the JSON-lines stream, and the dashboard in a real headless
 //! Chromium (Debian's, installed by `scripts/install-deps.sh`).
 
-use crate::util::{TestResult, indoorloc, json_of};
+use crate::util::{TOY, TestResult, indoorloc, json_of};
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-
-/// The demo's toy scale, as `demo_cli` runs it.
-const TOY: [&str; 7] = [
-    "--quick",
-    "--train-frames",
-    "48",
-    "--test-frames",
-    "24",
-    "--epochs",
-    "1",
-];
 
 /// Renders and trains the toy demo in `out` through `study track`, checking its rows.
 fn toy_demo_with_study_track(out: &Path) -> TestResult {

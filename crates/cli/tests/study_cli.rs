@@ -1,18 +1,7 @@
 //! The studies that train models, end to end at a toy size: they run, print the rows their
 //! issues name, and write their reports.
 
-use crate::util::{TestResult, indoorloc, json_of};
-
-/// The demo's toy scale, as `demo_cli` runs it.
-const TOY: [&str; 7] = [
-    "--quick",
-    "--train-frames",
-    "48",
-    "--test-frames",
-    "24",
-    "--epochs",
-    "1",
-];
+use crate::util::{TOY, TestResult, indoorloc, json_of};
 
 #[test]
 fn study_sequence_compares_single_frame_and_sequence_models() -> TestResult {

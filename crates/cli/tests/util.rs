@@ -39,3 +39,14 @@ pub fn json_of(out: &Output) -> Result<serde_json::Value, Box<dyn std::error::Er
     }
     Ok(serde_json::from_slice(&out.stdout)?)
 }
+
+/// The demo's toy scale, as `demo_cli` runs it.
+pub const TOY: [&str; 7] = [
+    "--quick",
+    "--train-frames",
+    "48",
+    "--test-frames",
+    "24",
+    "--epochs",
+    "1",
+];
