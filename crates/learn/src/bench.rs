@@ -27,6 +27,7 @@ fn net_config(arch: Arch, channels: usize) -> NetConfig {
         learned_weighting: false,
         head: HeadConfig::default(),
         split: false,
+        planes: false,
     }
 }
 

@@ -1,5 +1,6 @@
 //! Training batches, assembled on a worker thread while the previous step trains, optionally
-//! jittered ([`jitter_view`]).
+//! restyled ([`style_view`], shape-biased training) and jittered ([`jitter_view`]), with the
+//! plane targets of their frames when the network has a plane branch.
 //!
 //! The jitter works on the views already in memory (after grey conversion, resizing, CLAHE and
 //! normalisation), not on source images: `imgproc::augment` needs the `u8` source image, which
@@ -7,6 +8,11 @@
 //! view is photometric — contrast and brightness about the view's own mean and spread, sensor
 //! noise, and occluding rectangles — which keeps every pose label true and works whatever the
 //! view's normalisation. Geometric jitter would falsify 6-DoF labels and is left out.
+//!
+//! The style randomisation of shape-biased training (`imgproc::augment::style_randomize`:
+//! random monotone tone curves, possibly inverted, a material texture, coloured light that
+//! changes across the image, all keeping the edges) runs on the view mapped to bytes over its
+//! own range and back; views come from 8-bit images, so nothing is lost but rounding.
 //!
 //! Determinism: the jitter of epoch `e` comes from a ChaCha generator seeded with the run's
 //! seed on stream `AUGMENT_STREAM + e`, drawn in batch order on the one worker thread, so it
@@ -18,7 +24,10 @@ use std::thread::Scope;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use imgproc::augment::{StyleParams, style_randomize};
+
 use crate::dataset::Samples;
+use crate::planes::{PlaneBatch, PlaneTargets};
 
 /// Stream offset of the jitter generators (the training loop uses streams `1..=epochs`).
 pub const AUGMENT_STREAM: u64 = 1 << 32;
@@ -34,35 +43,62 @@ pub struct Batch {
     pub targets: Vec<f32>,
     /// Images in the batch.
     pub rows: usize,
+    /// Plane targets of the batch's frames, when asked for.
+    pub planes: Option<PlaneBatch>,
+}
+
+/// How training views are changed before each step; one generator for all of it, seeded per
+/// epoch ([`jitter_rng`]).
+pub struct Augment {
+    /// The epoch's generator.
+    pub rng: ChaCha8Rng,
+    /// Photometric jitter ([`jitter_view`]).
+    pub jitter: bool,
+    /// Style randomisation ([`style_view`]), before the jitter.
+    pub style: bool,
+}
+
+/// What [`spawn`] reads.
+#[derive(Clone, Copy)]
+pub struct Source<'a> {
+    /// The views.
+    pub samples: &'a Samples,
+    /// Targets per view.
+    pub targets: &'a [Vec<f32>],
+    /// Plane targets per view, for a network with a plane branch.
+    pub planes: Option<&'a PlaneTargets>,
 }
 
 /// Starts a worker in `scope` that sends the batches of `order` (`steps` batches of `size`)
-/// in order, jittered when `jitter` holds the epoch's generator. It stops early when the
-/// receiver is dropped.
+/// in order, changed as `augment` says. It stops early when the receiver is dropped.
 pub fn spawn<'scope>(
     scope: &'scope Scope<'scope, '_>,
-    samples: &'scope Samples,
-    targets: &'scope [Vec<f32>],
+    source: Source<'scope>,
     order: Vec<usize>,
     size: usize,
     steps: usize,
-    jitter: Option<ChaCha8Rng>,
+    augment: Option<Augment>,
 ) -> Receiver<Batch> {
     let (tx, rx) = sync_channel(PREFETCH);
-    scope.spawn(move || produce(samples, targets, &order, size, steps, jitter, &tx));
+    scope.spawn(move || produce(source, &order, size, steps, augment, &tx));
     rx
 }
 
 fn produce(
-    samples: &Samples,
-    targets: &[Vec<f32>],
+    source: Source<'_>,
     order: &[usize],
     size: usize,
     steps: usize,
-    mut jitter: Option<ChaCha8Rng>,
+    mut augment: Option<Augment>,
     tx: &SyncSender<Batch>,
 ) {
+    let Source {
+        samples,
+        targets,
+        planes,
+    } = source;
     let n = samples.view_len();
+    let (c, h, w) = (samples.channels, samples.height, samples.width);
     for step in 0..steps {
         let idx = &order[step * size..(step + 1) * size];
         let mut inputs = Vec::with_capacity(idx.len() * n);
@@ -70,14 +106,14 @@ fn produce(
         for &i in idx {
             let start = inputs.len();
             inputs.extend_from_slice(samples.input(i));
-            if let Some(rng) = jitter.as_mut() {
-                jitter_view(
-                    &mut inputs[start..],
-                    samples.channels,
-                    samples.height,
-                    samples.width,
-                    rng,
-                );
+            if let Some(aug) = augment.as_mut() {
+                let view = &mut inputs[start..];
+                if aug.style {
+                    style_view(view, c, h, w, &mut aug.rng);
+                }
+                if aug.jitter {
+                    jitter_view(view, c, h, w, &mut aug.rng);
+                }
             }
             values.extend_from_slice(&targets[i]);
         }
@@ -85,6 +121,7 @@ fn produce(
             inputs,
             targets: values,
             rows: idx.len(),
+            planes: planes.map(|p| PlaneBatch::of(p, idx)),
         };
         if tx.send(batch).is_err() {
             return;
@@ -132,6 +169,69 @@ pub fn jitter_view(
             for y in y0..y0 + h {
                 let row = (c * height + y) * width;
                 view[row + x0..row + x0 + w].fill(mean as f32);
+            }
+        }
+    }
+}
+
+/// Strength of the style randomisation, drawn per view: from a gentle repaint to inverted
+/// channels and strong coloured light.
+const STYLE_STRENGTH: std::ops::Range<f64> = 0.4..1.0;
+
+/// Restyles one view `[C, H, W]` (grey or RGB) in place for shape-biased training: the view is
+/// mapped to bytes over its own range, [`style_randomize`] repaints and relights it keeping its
+/// edges (see the module docs), and it is mapped back to the same range. A flat view is left
+/// alone.
+pub fn style_view(
+    view: &mut [f32],
+    channels: usize,
+    height: usize,
+    width: usize,
+    rng: &mut ChaCha8Rng,
+) {
+    let (lo, hi) = view
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    if !(hi - lo > 1e-6)
+        || (channels != 1 && channels != 3)
+        || view.len() != channels * height * width
+    {
+        return;
+    }
+    let plane = height * width;
+    let byte = |v: f32| ((v - lo) / (hi - lo) * 255.0).round().clamp(0.0, 255.0) as u8;
+    let back = |b: u8| lo + f32::from(b) / 255.0 * (hi - lo);
+    let params = StyleParams {
+        strength: rng.random_range(STYLE_STRENGTH),
+    };
+    let (w, h) = (width as u32, height as u32);
+    if channels == 1 {
+        let src = image::GrayImage::from_fn(w, h, |x, y| {
+            image::Luma([byte(view[y as usize * width + x as usize])])
+        });
+        let mut dst = image::GrayImage::new(w, h);
+        if style_randomize(&src, &mut dst, &params, rng).is_ok() {
+            for (v, p) in view.iter_mut().zip(dst.pixels()) {
+                *v = back(p.0[0]);
+            }
+        }
+    } else {
+        let src = image::RgbImage::from_fn(w, h, |x, y| {
+            let i = y as usize * width + x as usize;
+            image::Rgb([
+                byte(view[i]),
+                byte(view[plane + i]),
+                byte(view[2 * plane + i]),
+            ])
+        });
+        let mut dst = image::RgbImage::new(w, h);
+        if style_randomize(&src, &mut dst, &params, rng).is_ok() {
+            for (i, p) in dst.pixels().enumerate() {
+                for k in 0..3 {
+                    view[k * plane + i] = back(p.0[k]);
+                }
             }
         }
     }
@@ -187,7 +287,12 @@ mod tests {
         };
         let targets: Vec<Vec<f32>> = (0..5).map(|i| vec![i as f32]).collect();
         std::thread::scope(|scope| {
-            let rx = spawn(scope, &samples, &targets, vec![4, 3, 2, 1, 0], 2, 2, None);
+            let source = Source {
+                samples: &samples,
+                targets: &targets,
+                planes: None,
+            };
+            let rx = spawn(scope, source, vec![4, 3, 2, 1, 0], 2, 2, None);
             let first = rx.recv().unwrap();
             assert_eq!(first.rows, 2);
             assert_eq!(first.inputs, vec![8.0, 9.0, 6.0, 7.0]);
@@ -196,7 +301,12 @@ mod tests {
             assert!(rx.recv().is_err(), "two steps only");
         });
         std::thread::scope(|scope| {
-            let rx = spawn(scope, &samples, &targets, vec![0, 1, 2, 3, 4], 1, 5, None);
+            let source = Source {
+                samples: &samples,
+                targets: &targets,
+                planes: None,
+            };
+            let rx = spawn(scope, source, vec![0, 1, 2, 3, 4], 1, 5, None);
             drop(rx);
         });
     }

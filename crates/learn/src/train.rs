@@ -28,6 +28,7 @@ use crate::infer;
 use crate::loader;
 use crate::loss::pose_loss;
 use crate::net::{Arch, HeadConfig, NetConfig, PoseNet};
+use crate::planes::{self, PlaneTargets, plane_loss};
 use crate::progress::Progress;
 use crate::{LearnError, Result};
 
@@ -151,6 +152,15 @@ pub struct TrainConfig {
     /// [`crate::loader::jitter_view`]).
     #[serde(default)]
     pub augment: bool,
+    /// Shape-biased training: restyle every training view (random tone curves, inversion,
+    /// texture, coloured light; edges kept, see [`crate::loader::style_view`]) so the network
+    /// cannot key on paint and light.
+    #[serde(default)]
+    pub shape_bias: bool,
+    /// Train a dominant-plane branch beside the pose ([`crate::net::NetConfig::planes`]); the
+    /// dataset needs depth for every frame (and plane ids, else planes are found in the depth).
+    #[serde(default)]
+    pub planes: bool,
     /// Stop after this many epochs without a better validation median position error.
     pub patience: Option<usize>,
     /// Seed of initialisation, shuffling and dropout.
@@ -187,6 +197,8 @@ impl TrainConfig {
             aleatoric: true,
             split: false,
             augment: false,
+            shape_bias: false,
+            planes: false,
             patience: Some(10),
             seed: 0,
             resume: false,
@@ -263,6 +275,10 @@ pub struct EpochMetrics {
     pub val_mean_pos_m: f64,
     /// Wall time of the epoch (training and validation), seconds.
     pub seconds: f64,
+    /// Share of validation cells whose dominant-plane class the plane branch gets right (a
+    /// network with a plane branch only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub val_plane_accuracy: Option<f64>,
 }
 
 /// What [`train`] loaded before its first epoch.
@@ -390,6 +406,7 @@ fn fresh(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device) 
             aleatoric: cfg.aleatoric,
         },
         split: cfg.split,
+        planes: cfg.planes,
     };
     let net = net_cfg.init(device, cfg.seed)?;
     let meta = ModelMeta {
@@ -475,7 +492,7 @@ fn resume(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device)
 /// The settings a resume compares, in one line for the error message.
 fn settings_text(c: &TrainConfig, task: Task) -> String {
     format!(
-        "task {task}, arch {}, batch {}, lr {}, {:?}, {:?}, weight decay {}, beta {}, learned weighting {}, dropout {}, hidden {}, aleatoric {}, split {}, augment {}, seed {}, max steps {:?}",
+        "task {task}, arch {}, batch {}, lr {}, {:?}, {:?}, weight decay {}, beta {}, learned weighting {}, dropout {}, hidden {}, aleatoric {}, split {}, augment {}, seed {}, max steps {:?}, shape bias {}, planes {}",
         c.arch,
         c.batch_size,
         c.lr,
@@ -490,7 +507,9 @@ fn settings_text(c: &TrainConfig, task: Task) -> String {
         c.split,
         c.augment,
         c.seed,
-        c.max_steps_per_epoch
+        c.max_steps_per_epoch,
+        c.shape_bias,
+        c.planes
     )
 }
 
@@ -508,7 +527,14 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
     };
     let spec = ViewSpec::resolve(cfg.view.as_deref().unwrap_or(default_view))
         .map_err(|e| LearnError::Config(e.to_string()))?;
-    let data = dataset::load(&cfg.data, &spec, cfg.seed)?;
+    let mut data = dataset::load(&cfg.data, &spec, cfg.seed)?;
+    let planes = if cfg.planes {
+        let targets = plane_targets(cfg, &data)?;
+        data.hash = format!("{}-planes{:016x}", data.hash, targets.2);
+        Some((targets.0, targets.1))
+    } else {
+        None
+    };
     progress(&TrainEvent::Loaded(Loaded {
         train: data.train.len(),
         val: data.val.len(),
@@ -560,26 +586,36 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
         let mut order: Vec<usize> = (0..data.train.len()).collect();
         order.shuffle(&mut rng);
         let (mut loss_sum, mut pos_sum, mut lr) = (0.0, 0.0, cfg.lr);
-        let jitter = cfg.augment.then(|| loader::jitter_rng(cfg.seed, epoch));
+        let augment = (cfg.augment || cfg.shape_bias).then(|| loader::Augment {
+            rng: loader::jitter_rng(cfg.seed, epoch),
+            jitter: cfg.augment,
+            style: cfg.shape_bias,
+        });
         std::thread::scope(|scope| -> Result<()> {
-            let batches = loader::spawn(
-                scope,
-                &data.train,
-                &targets,
-                order,
-                batch_size,
-                steps,
-                jitter,
-            );
+            let source = loader::Source {
+                samples: &data.train,
+                targets: &targets,
+                planes: planes.as_ref().map(|p| &p.0),
+            };
+            let batches = loader::spawn(scope, source, order, batch_size, steps, augment);
             for (step, b) in batches.iter().enumerate() {
                 let x =
                     Tensor::<4>::from_data(TensorData::new(b.inputs, [b.rows, c, h, w]), &device);
                 let y =
                     Tensor::<2>::from_data(TensorData::new(b.targets, [b.rows, outputs]), &device);
-                let out = net.forward_dropout(x, cfg.dropout, &mut rng);
+                let (out, plane_out) = net.forward_dropout_planes(x, cfg.dropout, &mut rng);
                 let parts = pose_loss(&coding, out, y, cfg.beta, net.log_vars());
-                let grads = GradientsParams::from_grads(parts.total.backward(), &net);
-                let loss: f64 = parts.total.into_scalar::<f32>() as f64;
+                let total = match (plane_out, &b.planes) {
+                    (Some(p), Some(t)) => {
+                        parts.total.clone()
+                            + plane_loss(&p, t, &device)
+                                .total
+                                .mul_scalar(PLANE_LOSS_WEIGHT)
+                    }
+                    _ => parts.total.clone(),
+                };
+                let grads = GradientsParams::from_grads(total.backward(), &net);
+                let loss: f64 = total.into_scalar::<f32>() as f64;
                 if !loss.is_finite() {
                     return Err(LearnError::Diverged(format!(
                         "loss {loss} at epoch {epoch}, step {}; try a lower learning rate",
@@ -602,6 +638,10 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
         })?;
         let valid = net.valid();
         let (med_pos, med_rot, mean_pos) = evaluate(&valid, &coding, &data.val, &plain)?;
+        let val_plane_accuracy = match &planes {
+            Some((_, val_targets)) => Some(plane_accuracy(&valid, &data.val, val_targets, &plain)?),
+            None => None,
+        };
         let metrics = EpochMetrics {
             epoch,
             train_loss: loss_sum / steps as f64,
@@ -611,6 +651,7 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
             val_median_rot_deg: med_rot,
             val_mean_pos_m: mean_pos,
             seconds: t_epoch.elapsed().as_secs_f64(),
+            val_plane_accuracy,
         };
         let improved = med_pos < meta.val_median_pos_m || meta.best_epoch == 0;
         stale = if improved { 0 } else { stale + 1 };
@@ -633,6 +674,63 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
         }
     }
     Ok(TrainSummary::of(&meta, &cfg.out))
+}
+
+/// Weight of the plane loss beside the pose loss (whose position part is in metres).
+pub const PLANE_LOSS_WEIGHT: f64 = 1.0;
+
+/// The plane targets of the training and validation frames on the plane branch's grid, and a
+/// hash of the files read.
+fn plane_targets(cfg: &TrainConfig, data: &TrainData) -> Result<(PlaneTargets, PlaneTargets, u64)> {
+    let input = [data.train.channels, data.train.height, data.train.width];
+    let grid = crate::net::plane_grid(cfg.arch, input)?;
+    let (train, h1) = planes::load(&cfg.data, &data.info.camera, &data.train, grid)?;
+    let (val, h2) = planes::load(&cfg.data, &data.info.camera, &data.val, grid)?;
+    if train.coverage() == 0.0 {
+        return Err(LearnError::Input(format!(
+            "{}: no training frame shows a plane that could be fitted; the plane task has nothing to learn",
+            cfg.data.display()
+        )));
+    }
+    Ok((train, val, h1 ^ h2.rotate_left(1)))
+}
+
+/// Share of `samples`' cells whose plane class the network's plane branch gets right.
+fn plane_accuracy(
+    net: &PoseNet,
+    samples: &Samples,
+    targets: &PlaneTargets,
+    device: &Device,
+) -> Result<f64> {
+    let [gh, gw] = targets.grid;
+    let cells = gh * gw;
+    let (mut right, mut all) = (0.0, 0usize);
+    let n = samples.view_len();
+    for start in (0..samples.len()).step_by(infer::CHUNK) {
+        let end = (start + infer::CHUNK).min(samples.len());
+        let x = Tensor::<4>::from_data(
+            TensorData::new(
+                samples.inputs[start * n..end * n].to_vec(),
+                [end - start, samples.channels, samples.height, samples.width],
+            ),
+            device,
+        );
+        let Some(out) = net.plane_outputs(x) else {
+            return Ok(0.0);
+        };
+        let logits = out
+            .classes
+            .into_data()
+            .try_to_vec::<f32>()
+            .map_err(|e| LearnError::Input(format!("{e:?}")))?;
+        let classes: Vec<u8> = targets.frames[start..end]
+            .iter()
+            .flat_map(|f| f.classes.iter().copied())
+            .collect();
+        right += planes::class_accuracy(&classes, &logits, cells) * classes.len() as f64;
+        all += classes.len();
+    }
+    Ok(right / all.max(1) as f64)
 }
 
 /// Writes the checkpoint of a finished epoch: state files, `model.bpk` when `best` is given,

@@ -325,6 +325,50 @@ fn two_networks_train_and_localize_a_ceiling_camera() {
 }
 
 #[test]
+fn the_plane_branch_and_shape_bias_train_and_the_network_can_be_explained() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    common::make_dataset(&data, 6, 16);
+    let out = tmp.path().join("model");
+    let mut cfg = tiny_config(&data, &out, 12);
+    cfg.view = Some("resize=64x48".into());
+    cfg.hidden = 32;
+    cfg.planes = true;
+    cfg.shape_bias = true;
+    // Without depth there is nothing to learn the planes from: an error naming the file.
+    let err = train(&cfg, &mut |_| {}).unwrap_err().to_string();
+    assert!(err.contains("depth") && err.contains("000000.png"), "{err}");
+    common::add_depth_and_planes(&data, true);
+    let (summary, events) = run(&cfg);
+    let losses = step_losses(&events);
+    assert!(losses.iter().all(|l| l.is_finite()));
+    let accuracy: Vec<f64> = summary
+        .history
+        .iter()
+        .map(|m| m.val_plane_accuracy.unwrap())
+        .collect();
+    // A third of the cells are floor: always answering "wall" would score 0.67.
+    assert!(accuracy[accuracy.len() - 1] > 0.9, "{accuracy:?}");
+    let loc = Localizer::load(&summary.out).unwrap();
+    assert!(loc.meta().net.planes && loc.meta().config.shape_bias);
+    let (pos, _) = val_errors(&loc, &data);
+    assert!((pos - summary.val_median_pos_m).abs() < 1e-3);
+    // Grad-CAM on the last map (2x2 cells for a 64x48 view): values in [0, 1], the peak at 1.
+    let img = image::open(data.join("frames/000005.png")).unwrap();
+    let cam = loc.grad_cam(&loc.view(&img).unwrap()).unwrap();
+    assert_eq!((cam.width, cam.height), (2, 2));
+    assert!(cam.values.iter().all(|v| (0.0..=1.0).contains(v)));
+    assert!(cam.values.contains(&1.0), "{cam:?}");
+    assert!(cam.score > 0.0);
+    // Without plane ids the planes are found in the depth (RANSAC) and training still works.
+    std::fs::remove_dir_all(data.join("planes")).unwrap();
+    let mut cfg = tiny_config(&data, &tmp.path().join("model-ransac"), 1);
+    cfg.planes = true;
+    let (summary, _) = run(&cfg);
+    assert!(summary.history[0].val_plane_accuracy.is_some());
+}
+
+#[test]
 fn bad_configurations_and_datasets_are_errors() {
     let tmp = tempfile::tempdir().unwrap();
     let data = tmp.path().join("data");

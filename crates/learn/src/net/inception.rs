@@ -15,6 +15,9 @@ use super::conv::ConvBn;
 /// Features after inception 4a.
 pub const INCEPTION_FEATURES: usize = 512;
 
+/// Channels of the stride-8 map (after inception 3b).
+pub const INCEPTION_MID_CHANNELS: usize = 480;
+
 /// `k x k` max pool, stride `s`, padding `p`, sizes rounded up (GoogLeNet's `ceil_mode`).
 fn max_pool(k: usize, s: usize, p: usize) -> MaxPool2d {
     MaxPool2dConfig::new([k, k])
@@ -145,11 +148,18 @@ impl InceptionNet {
 
     /// `[B, C, H, W] -> [B, 512, H/16, W/16]` (sizes rounded up).
     pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+        self.forward_mid(x).1
+    }
+
+    /// The stride-8 map (after inception 3b, 480 channels) and the output of
+    /// [`InceptionNet::forward`].
+    pub fn forward_mid(&self, x: Tensor<4>) -> (Tensor<4>, Tensor<4>) {
         let x = self.pool1.forward(self.conv1.forward(x));
         let x = self
             .pool2
             .forward(self.conv3.forward(self.conv2.forward(x)));
-        let x = self.inception3b.forward(self.inception3a.forward(x));
-        self.inception4a.forward(self.pool3.forward(x))
+        let mid = self.inception3b.forward(self.inception3a.forward(x));
+        let out = self.inception4a.forward(self.pool3.forward(mid.clone()));
+        (mid, out)
     }
 }

@@ -11,6 +11,7 @@
 mod conv;
 mod inception;
 pub mod mc;
+mod planes;
 mod resnet;
 mod small;
 
@@ -30,9 +31,10 @@ use rand_chacha::ChaCha8Rng;
 use crate::head::Task;
 use crate::{LearnError, Result};
 
-pub use inception::{INCEPTION_FEATURES, InceptionNet};
-pub use resnet::{RESNET_FEATURES, RESNET18_BLOCKS, RESNET34_BLOCKS, ResNet};
-pub use small::{SMALL_CHANNELS, SmallNet};
+pub use inception::{INCEPTION_FEATURES, INCEPTION_MID_CHANNELS, InceptionNet};
+pub use planes::{PLANE_FEATURES, PlaneBranch};
+pub use resnet::{RESNET_FEATURES, RESNET_MID_CHANNELS, RESNET18_BLOCKS, RESNET34_BLOCKS, ResNet};
+pub use small::{SMALL_CHANNELS, SMALL_MID_CHANNELS, SmallNet};
 
 /// Which backbone a [`PoseNet`] uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -58,6 +60,15 @@ impl Arch {
             Arch::Small => SMALL_CHANNELS[SMALL_CHANNELS.len() - 1],
             Arch::Resnet18 | Arch::Resnet34 => RESNET_FEATURES,
             Arch::Googlenet => INCEPTION_FEATURES,
+        }
+    }
+
+    /// Channels of the stride-8 map the plane branch reads ([`Backbone::forward_mid`]).
+    pub fn mid_features(self) -> usize {
+        match self {
+            Arch::Small => SMALL_MID_CHANNELS,
+            Arch::Resnet18 | Arch::Resnet34 => RESNET_MID_CHANNELS,
+            Arch::Googlenet => INCEPTION_MID_CHANNELS,
         }
     }
 
@@ -116,6 +127,11 @@ pub struct NetConfig {
     /// two parts then cannot compete for one network's features.
     #[serde(default)]
     pub split: bool,
+    /// A dominant-plane branch on the (first) backbone's stride-8 map ([`PlaneBranch`]),
+    /// trained on plane classes, parameters and the depth they induce; its pooled features
+    /// join the pose head's input.
+    #[serde(default)]
+    pub planes: bool,
 }
 
 impl NetConfig {
@@ -176,13 +192,20 @@ impl NetConfig {
             pool,
             hidden,
             head,
-        } = Branch::new(self, device);
+        } = Branch::new(
+            self,
+            self.planes.then_some(PLANE_FEATURES).unwrap_or(0),
+            device,
+        );
         PoseNet {
             backbone,
             pool,
             hidden,
             head,
-            rotation: self.split.then(|| Branch::new(self, device)),
+            planes: self
+                .planes
+                .then(|| PlaneBranch::new(self.arch.mid_features(), device)),
+            rotation: self.split.then(|| Branch::new(self, 0, device)),
             pos_dims: self.pos_dims(),
             rot_dims: self.outputs - self.pos_dims(),
             // Kendall & Cipolla (2017) start at s_x = 0, s_q = -3.
@@ -191,6 +214,22 @@ impl NetConfig {
                 .then(|| Param::from_tensor(Tensor::from_floats([0.0, -3.0], device))),
         }
     }
+}
+
+/// The `[gh, gw]` grid of the plane branch (the stride-8 map) for inputs `[C, H, W]` on the
+/// backbone `arch`, found by running a fresh backbone once on zeros.
+pub fn plane_grid(arch: Arch, input: [usize; 3]) -> Result<[usize; 2]> {
+    let [c, h, w] = input;
+    if c != 1 && c != 3 {
+        return Err(LearnError::Config(format!(
+            "input channels must be 1 or 3, not {c}"
+        )));
+    }
+    let device = Device::flex();
+    let backbone = Backbone::new(arch, c, &device);
+    let (mid, _) = backbone.forward_mid(Tensor::zeros([1, c, h, w], &device));
+    let [_, _, gh, gw] = mid.dims();
+    Ok([gh, gw])
 }
 
 /// A module built by `build` with every parameter initialised from `seed`: the same seed gives
@@ -286,6 +325,15 @@ impl Backbone {
             Backbone::Inception(n) => n.forward(x),
         }
     }
+
+    /// The stride-8 map and the final map.
+    pub(crate) fn forward_mid(&self, x: Tensor<4>) -> (Tensor<4>, Tensor<4>) {
+        match self {
+            Backbone::Small(n) => n.forward_mid(x),
+            Backbone::ResNet(n) => n.forward_mid(x),
+            Backbone::Inception(n) => n.forward_mid(x),
+        }
+    }
 }
 
 /// One network: backbone, global average pool, optional hidden layer, linear output layer.
@@ -298,9 +346,11 @@ pub struct Branch {
 }
 
 impl Branch {
-    fn new(cfg: &NetConfig, device: &Device) -> Branch {
+    /// A network of `cfg`'s layout whose head also reads `extra` features (the plane
+    /// branch's).
+    fn new(cfg: &NetConfig, extra: usize, device: &Device) -> Branch {
         let backbone = Backbone::new(cfg.arch, cfg.channels, device);
-        let features = cfg.arch.features();
+        let features = cfg.arch.features() + extra;
         let hidden = cfg.head.hidden;
         Branch {
             backbone,
@@ -367,6 +417,15 @@ impl Parts<'_> {
     }
 }
 
+/// What the plane branch says of each cell of the stride-8 map.
+#[derive(Clone, Debug)]
+pub struct PlaneOutputs {
+    /// Class logits `[B, PLANE_CLASSES, h, w]`.
+    pub classes: Tensor<4>,
+    /// Raw plane parameters `[B, PLANE_PARAMS, h, w]`: normal (not normalised), log distance.
+    pub params: Tensor<4>,
+}
+
 /// A pose-regression network: one network (backbone, pool, optional hidden layer, output
 /// layer), or two with [`NetConfig::split`], the second ([`Branch`]) for the rotation. Each
 /// network computes every output and the unused ones are dropped (a few hundred weights, for
@@ -377,6 +436,7 @@ pub struct PoseNet {
     pool: AdaptiveAvgPool2d,
     hidden: Option<Linear>,
     head: Linear,
+    planes: Option<PlaneBranch>,
     rotation: Option<Branch>,
     pos_dims: usize,
     rot_dims: usize,
@@ -404,19 +464,65 @@ impl PoseNet {
         self.backbone.forward(x)
     }
 
-    /// Pooled features `[B, F]` of a batch `[B, C, H, W]` (with two networks, both networks'
-    /// side by side).
+    /// Pooled features `[B, F]` of a batch `[B, C, H, W]` (with the plane branch, its pooled
+    /// features after the backbone's; with two networks, the rotation network's last).
     pub fn features(&self, x: Tensor<4>) -> Tensor<2> {
-        match &self.rotation {
-            None => self.main().features(x),
-            Some(rotation) => Tensor::cat(
-                vec![
-                    self.main().features(x.clone()),
-                    rotation.parts().features(x),
-                ],
-                1,
-            ),
-        }
+        self.features_and_planes(x, false).0
+    }
+
+    /// [`PoseNet::features`] and, when `outputs` is set and the network has a plane branch,
+    /// its class logits and plane parameters ([`PlaneBranch::outputs`]).
+    fn features_and_planes(
+        &self,
+        x: Tensor<4>,
+        outputs: bool,
+    ) -> (Tensor<2>, Option<PlaneOutputs>) {
+        let rotation = self
+            .rotation
+            .as_ref()
+            .map(|r| r.parts().features(x.clone()));
+        let (main, planes) = match &self.planes {
+            None => (self.main().features(x), None),
+            Some(branch) => {
+                let (mid, map) = self.backbone.forward_mid(x);
+                let plane_map = branch.features(mid);
+                let pooled = Tensor::cat(
+                    vec![
+                        self.pool.forward(map).flatten(1, 3),
+                        self.pool.forward(plane_map.clone()).flatten(1, 3),
+                    ],
+                    1,
+                );
+                let outputs = outputs.then(|| {
+                    let (classes, params) = branch.outputs(plane_map);
+                    PlaneOutputs { classes, params }
+                });
+                (pooled, outputs)
+            }
+        };
+        let features = match rotation {
+            None => main,
+            Some(rotation) => Tensor::cat(vec![main, rotation], 1),
+        };
+        (features, planes)
+    }
+
+    /// The pooled features of the plane branch `[B, PLANE_FEATURES]` (none without one): the
+    /// part of the pose head's input that does not come from [`PoseNet::feature_map`].
+    pub(crate) fn plane_features(&self, x: Tensor<4>) -> Option<Tensor<2>> {
+        let branch = self.planes.as_ref()?;
+        let (mid, _) = self.backbone.forward_mid(x);
+        Some(self.pool.forward(branch.features(mid)).flatten(1, 3))
+    }
+
+    /// The first network's hidden layer (if any) and output layer, for Grad-CAM.
+    pub(crate) fn head_layers(&self) -> (Option<&Linear>, &Linear) {
+        (self.hidden.as_ref(), &self.head)
+    }
+
+    /// Position outputs (the first ones).
+    pub(crate) fn pos_dims(&self) -> usize {
+        self.pos_dims
     }
 
     /// The head applied to features `[B, F] -> [B, outputs]`, with dropout of probability `p`
@@ -478,11 +584,30 @@ impl PoseNet {
         self.head(self.features(x), p, 1, rng)
     }
 
+    /// [`PoseNet::forward_dropout`] and the plane branch's outputs (none without a branch),
+    /// for training.
+    pub fn forward_dropout_planes(
+        &self,
+        x: Tensor<4>,
+        p: f64,
+        rng: &mut ChaCha8Rng,
+    ) -> (Tensor<2>, Option<PlaneOutputs>) {
+        let (features, planes) = self.features_and_planes(x, true);
+        (self.head(features, p, 1, rng), planes)
+    }
+
+    /// The plane branch's outputs of a batch (none without a branch).
+    pub fn plane_outputs(&self, x: Tensor<4>) -> Option<PlaneOutputs> {
+        self.planes.as_ref()?;
+        self.features_and_planes(x, true).1
+    }
+
     /// The network with every BatchNorm folded into its convolution (see `conv.rs`): the same
     /// outputs in evaluation mode, faster. For inference only; never train or save the result.
     pub fn fold_batchnorm(self) -> Self {
         PoseNet {
             backbone: self.backbone.fold(),
+            planes: self.planes.map(PlaneBranch::fold),
             rotation: self.rotation.map(|b| Branch {
                 backbone: b.backbone.fold(),
                 ..b
@@ -523,6 +648,7 @@ mod tests {
             learned_weighting: false,
             head: HeadConfig::default(),
             split: false,
+            planes: false,
         }
     }
 

@@ -65,7 +65,12 @@ pub struct ResNet {
     stem: ConvBn,
     pool: MaxPool2d,
     blocks: Vec<BasicBlock>,
+    /// Blocks up to the end of the second stage (the stride-8 map).
+    mid_blocks: usize,
 }
+
+/// Channels of the stride-8 map (after the second stage).
+pub const RESNET_MID_CHANNELS: usize = STAGES[1].0;
 
 impl ResNet {
     /// A ResNet with `per_stage` basic blocks in each of the four stages
@@ -87,6 +92,7 @@ impl ResNet {
                 .with_padding(PaddingConfig2d::Explicit(1, 1, 1, 1))
                 .init(),
             blocks,
+            mid_blocks: per_stage[0] + per_stage[1],
         }
     }
 
@@ -96,15 +102,27 @@ impl ResNet {
             stem: self.stem.fold(),
             pool: self.pool,
             blocks: self.blocks.into_iter().map(BasicBlock::fold).collect(),
+            mid_blocks: self.mid_blocks,
         }
     }
 
     /// `[B, C, H, W] -> [B, 512, H/32, W/32]` (sizes rounded up at each stride).
     pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+        self.forward_mid(x).1
+    }
+
+    /// The stride-8 map (after the second stage, 128 channels) and the output of
+    /// [`ResNet::forward`].
+    pub fn forward_mid(&self, x: Tensor<4>) -> (Tensor<4>, Tensor<4>) {
         let mut x = self.pool.forward(relu(self.stem.forward(x)));
-        for block in &self.blocks {
+        let (head, tail) = self.blocks.split_at(self.mid_blocks.min(self.blocks.len()));
+        for block in head {
             x = block.forward(x);
         }
-        x
+        let mid = x.clone();
+        for block in tail {
+            x = block.forward(x);
+        }
+        (mid, x)
     }
 }

@@ -11,6 +11,12 @@ use super::conv::ConvBn;
 /// Channels of the five stages.
 pub const SMALL_CHANNELS: [usize; 5] = [32, 64, 128, 256, 256];
 
+/// Stages before the stride-8 map [`SmallNet::forward_mid`] returns.
+const MID_STAGES: usize = 3;
+
+/// Channels of the stride-8 map.
+pub const SMALL_MID_CHANNELS: usize = SMALL_CHANNELS[MID_STAGES - 1];
+
 /// The convolutional body of the small network (pooling and head live in
 /// [`super::PoseNet`]).
 #[derive(Module, Debug)]
@@ -41,10 +47,21 @@ impl SmallNet {
     }
 
     /// `[B, C, H, W] -> [B, 256, H/32, W/32]` (sizes rounded up at each stage).
-    pub fn forward(&self, mut x: Tensor<4>) -> Tensor<4> {
-        for stage in &self.stages {
+    pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+        self.forward_mid(x).1
+    }
+
+    /// The stride-8 map (after the third stage, 128 channels) and the output of
+    /// [`SmallNet::forward`].
+    pub fn forward_mid(&self, mut x: Tensor<4>) -> (Tensor<4>, Tensor<4>) {
+        let (head, tail) = self.stages.split_at(MID_STAGES);
+        for stage in head {
             x = relu(stage.forward(x));
         }
-        x
+        let mid = x.clone();
+        for stage in tail {
+            x = relu(stage.forward(x));
+        }
+        (mid, x)
     }
 }

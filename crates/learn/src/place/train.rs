@@ -386,10 +386,19 @@ pub fn train_place(
         rng.set_stream(epoch as u64);
         let mut order: Vec<usize> = (0..train.len()).collect();
         order.shuffle(&mut rng);
-        let jitter = cfg.augment.then(|| loader::jitter_rng(cfg.seed, epoch));
+        let augment = cfg.augment.then(|| loader::Augment {
+            rng: loader::jitter_rng(cfg.seed, epoch),
+            jitter: true,
+            style: false,
+        });
         let mut loss_sum = 0.0;
         std::thread::scope(|scope| -> Result<()> {
-            let batches = loader::spawn(scope, &train, &targets, order, batch, steps, jitter);
+            let source = loader::Source {
+                samples: &train,
+                targets: &targets,
+                planes: None,
+            };
+            let batches = loader::spawn(scope, source, order, batch, steps, augment);
             for (step, b) in batches.iter().enumerate() {
                 let x =
                     Tensor::<4>::from_data(TensorData::new(b.inputs, [b.rows, c, h, w]), &device);
