@@ -39,6 +39,8 @@ enum Command {
     Train(cmd::train::TrainArgs),
     /// Poses of images, an image folder, a video or a dataset from a trained model.
     Localize(cmd::localize::LocalizeArgs),
+    /// Grad-CAM maps of what a pose network looks at, drawn over each frame.
+    Explain(cmd::explain::ExplainArgs),
     /// Scene cuts (and fades, dissolves) in a video or image folder, by visual rhythm.
     Scenecut(cmd::scenecut::ScenecutArgs),
     /// Camera intrinsics and distortion from checkerboard photos (OpenCV-compatible YAML).
@@ -63,6 +65,7 @@ fn main() -> ExitCode {
         Command::Preprocess(args) => cmd::preprocess::run(&args),
         Command::Train(args) => cmd::train::run(&args),
         Command::Localize(args) => cmd::localize::run(&args),
+        Command::Explain(args) => cmd::explain::run(&args),
         Command::Scenecut(args) => cmd::scenecut::run(&args),
         Command::Serve(args) => cmd::serve::run(&args),
         Command::Study(args) => cmd::study::run(&args),

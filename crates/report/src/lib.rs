@@ -18,6 +18,7 @@
 //!   tables, inline SVG and base64 PNG figures).
 //! - [`contact_sheet`]: a grid of labelled pictures in one PNG.
 //! - [`rhythm_png`]: the scene-cut picture (visual rhythm, difference series, cuts).
+//! - [`saliency_overlay`]: a Grad-CAM map blended over its frame.
 //! - [`write_atomic`]: every file is written to a temporary name in the same folder, then renamed.
 //!
 //! # Conventions
@@ -57,6 +58,7 @@ mod font;
 mod html;
 mod io;
 mod rhythm;
+mod saliency;
 mod scatter;
 mod sheet;
 mod table;
@@ -72,6 +74,7 @@ pub use figure::{
 pub use html::HtmlReport;
 pub use io::write_atomic;
 pub use rhythm::{RhythmPlot, rhythm_png};
+pub use saliency::saliency_overlay;
 pub use scatter::{Scatter, scatter};
 pub use sheet::{Tile, contact_sheet};
 pub use table::Table;

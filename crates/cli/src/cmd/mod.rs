@@ -4,6 +4,7 @@ pub mod bench;
 pub mod calibrate;
 pub mod demo;
 pub mod eval;
+pub mod explain;
 pub mod localize;
 pub mod markers;
 pub mod parse;

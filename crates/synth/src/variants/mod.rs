@@ -271,6 +271,33 @@ fn swap_textures(world: &mut World, seed: u64) {
     }
 }
 
+/// Domain randomisation for shape-biased training: every material gets its own random colour
+/// (any hue, saturation up to 0.8, lightness 0.08–0.95) and a new pattern seed, independently
+/// of the others, unlike [`Variant::TextureSwap`]'s one coherent repaint; lamps and windows
+/// only change colour temperature, as in the swap. Geometry, lights and labels stay, so the
+/// poses and plane ids of frames rendered from it are those of the building as built.
+/// Deterministic per `seed`.
+pub fn randomize_materials(world: &mut World, seed: u64) {
+    let mut r = rng(seed, stream::COLOURS ^ 0x00ad_0a11);
+    let mut uf = |lo: f32, hi: f32| uniform(&mut r, f64::from(lo), f64::from(hi)) as f32;
+    for m in &mut world.materials {
+        let glowing =
+            m.emissive > 0.0 || matches!(m.pattern, Pattern::LightPanel | Pattern::Window);
+        m.color = if glowing {
+            let warmth = uf(-1.0, 1.0);
+            let tint = if warmth > 0.0 {
+                [1.0, 1.0 - 0.14 * warmth, 1.0 - 0.3 * warmth]
+            } else {
+                [1.0 + 0.22 * warmth, 1.0 + 0.12 * warmth, 1.0]
+            };
+            std::array::from_fn(|k| m.color[k] * tint[k])
+        } else {
+            hsv_to_rgb([uf(0.0, 360.0), uf(0.0, 0.8), uf(0.08, 0.95)])
+        };
+        m.seed = splitmix(m.seed ^ seed ^ 0x0D0A_1DAD_5EED_0001);
+    }
+}
+
 fn splitmix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);

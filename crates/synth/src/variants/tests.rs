@@ -153,6 +153,39 @@ fn texture_swap_changes_every_material_colour_and_seed() {
 }
 
 #[test]
+fn randomized_materials_are_independent_per_material_and_follow_the_seed() {
+    let mut world = test_world::world();
+    for k in 0..12 {
+        world.add_material(crate::world::Material::plain(&format!("grey {k}"), [0.5; 3]));
+    }
+    let base = world.clone();
+    randomize_materials(&mut world, 3);
+    assert_eq!(world.triangles, base.triangles);
+    assert_eq!(world.lights, base.lights);
+    // Twelve materials of one colour before: twelve different colours after (a common
+    // repaint would have kept them equal), each a valid colour with a new pattern seed.
+    let greys: Vec<[f32; 3]> = world.materials[base.materials.len() - 12..]
+        .iter()
+        .map(|m| m.color)
+        .collect();
+    for (i, a) in greys.iter().enumerate() {
+        assert!(a.iter().all(|c| (0.0..=1.0).contains(c)), "{a:?}");
+        for b in &greys[i + 1..] {
+            assert_ne!(a, b);
+        }
+    }
+    for (a, b) in base.materials.iter().zip(&world.materials) {
+        assert_ne!(a.seed, b.seed);
+    }
+    let mut again = base.clone();
+    randomize_materials(&mut again, 3);
+    assert_eq!(again, world);
+    let mut other = base;
+    randomize_materials(&mut other, 4);
+    assert_ne!(other, world);
+}
+
+#[test]
 fn hsv_round_trip() {
     for c in [
         [0.2, 0.5, 0.9],

@@ -66,6 +66,21 @@ pub struct DemoArgs {
     /// Appearance variant of the held-out test walk (as `synth --variant` names them).
     #[arg(long, default_value = "normal")]
     test_variant: String,
+    /// Appearance variants of the training walks, comma-separated (default: normal, dim and
+    /// some-lights-off with --quick; also daylight, furniture-moved and posters-changed
+    /// without). The training walks are shared out among them.
+    #[arg(long, value_delimiter = ',', value_name = "VARIANTS")]
+    train_variants: Vec<String>,
+    /// Shape-biased training: the training walks are rendered with randomised materials (a
+    /// new draw every 50 frames) and every training view is restyled (random tone curves,
+    /// texture and coloured light, edges kept), so the network learns the building's shape
+    /// rather than its paint.
+    #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]
+    shape_bias: Option<bool>,
+    /// Train a dominant-plane branch beside the pose (the renderer's depth and plane ids are
+    /// written for every frame and supervise it); its features feed the pose head.
+    #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]
+    planes: Option<bool>,
     /// Override the network's input view (a preset or spec text, as `train --view` takes).
     #[arg(long)]
     view: Option<String>,
@@ -114,7 +129,7 @@ struct Setup {
 
 fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
     let ceiling = args.camera == DemoCamera::Ceiling;
-    let variants: &[&str] = if args.quick {
+    let defaults: &[&str] = if args.quick {
         &["normal", "dim", "some-lights-off"]
     } else {
         &[
@@ -126,7 +141,15 @@ fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
             "posters-changed",
         ]
     };
-    let walks = if args.quick { 2 } else { 4 };
+    let variants: Vec<String> = if args.train_variants.is_empty() {
+        defaults.iter().map(|v| v.to_string()).collect()
+    } else {
+        args.train_variants.clone()
+    };
+    // Six training walks for the quick run and 24 for the full one, shared out among the
+    // variants.
+    let walks = (if args.quick { 6 } else { 24 } / variants.len()).max(1);
+    let (shape_bias, planes) = (args.shape_bias == Some(true), args.planes == Some(true));
     // The full ceiling run keeps the 160x120 view of the ceiling-camera literature, four times
     // the pixels of the forward run's view, with two networks, so it trains on fewer frames
     // (and still takes about 50 min on two cores). With 8 000 frames the networks were still
@@ -154,13 +177,15 @@ fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
         zone: args.zone.clone(),
         width: 160,
         height: 120,
-        train_variants: variants.iter().map(|v| v.to_string()).collect(),
+        train_variants: variants.clone(),
         walks_per_variant: walks,
         frames_per_walk: train_frames.div_ceil(walks * variants.len()),
         val_frames: test_frames.div_ceil(2),
         test_frames,
         train_mode: args.render_mode.clone(),
         test_variant: args.test_variant.clone(),
+        random_materials: shape_bias,
+        depth: planes,
     };
     let mut train = TrainConfig::new(data, model);
     train.task = Some(if ceiling { Task::Pose3 } else { Task::Pose6 });
@@ -188,6 +213,8 @@ fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
     train.aleatoric = args.aleatoric;
     train.split = args.split.unwrap_or(ceiling);
     train.augment = args.augment.unwrap_or(quick_forward);
+    train.shape_bias = shape_bias;
+    train.planes = planes;
     train.seed = args.seed;
     train.resume = true;
     Setup { scene, train }
@@ -408,6 +435,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             scale: setup.train.aleatoric,
             summary: &summary,
             cuts: &cuts,
+            model_dir: &model_dir,
         },
     )?;
     seconds.report = t.elapsed().as_secs_f64();

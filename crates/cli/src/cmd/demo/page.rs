@@ -28,6 +28,8 @@ pub struct PageInput<'a> {
     pub summary: &'a TrainSummary,
     /// The walk with scene cuts through the temporal filter.
     pub cuts: &'a crate::cmd::study::cuts::CutFigures,
+    /// The trained model (for the Grad-CAM maps).
+    pub model_dir: &'a Path,
 }
 
 /// Writes `report.html` and the figures into `dir`; returns the page's path.
@@ -145,6 +147,14 @@ pub fn write(dir: &Path, input: &PageInput) -> Result<PathBuf> {
          the best, median and worst errors.",
     );
 
+    page.section("What the network looks at");
+    let sheet = saliency_sheet(input)?;
+    report::write_atomic(&dir.join("saliency.png"), &sheet)?;
+    page.png(
+        &sheet,
+        "Grad-CAM maps of the position estimate over six test frames spread along the walk:          bright where the features that move the estimate away from the centre of the training          poses are (`indoorloc explain` draws them for any frames).",
+    );
+
     crate::cmd::study::cuts::section(&mut page, input.cuts)?;
 
     page.section("Training");
@@ -189,6 +199,32 @@ fn figure(
 }
 
 /// Pairs of (test frame, render from its estimate) at the smallest, median and largest errors.
+/// Frames of the Grad-CAM sheet.
+const SALIENCY_FRAMES: usize = 6;
+
+/// Grad-CAM maps over test frames spread evenly along the walk, as one contact sheet.
+fn saliency_sheet(input: &PageInput) -> Result<Vec<u8>> {
+    let loc = learn::Localizer::load(input.model_dir)?;
+    let mode = input.scene.train_mode()?;
+    let r = input.results;
+    let mut tiles = Vec::new();
+    for k in 0..SALIENCY_FRAMES.min(r.len()) {
+        let f = &r[k * r.len() / SALIENCY_FRAMES.min(r.len())];
+        let number = input
+            .dataset
+            .frame_number(f.index)
+            .unwrap_or(f.index as u64);
+        let photo = data::frames::decode_image(&input.dataset.frame_path(number))?;
+        let (_, _, overlay) =
+            crate::cmd::explain::explain_image(&loc, &scene::photo_as(photo, mode)?)?;
+        tiles.push(Tile {
+            label: format!("frame {number}: {:.2} m", f.pos_err_m),
+            image: overlay,
+        });
+    }
+    Ok(report::contact_sheet("Grad-CAM of the position", &tiles, 3)?)
+}
+
 fn frames_sheet(input: &PageInput, world: &synth::World) -> Result<Vec<u8>> {
     let r = input.results;
     let mut order: Vec<usize> = (0..r.len()).collect();

@@ -15,9 +15,12 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use synth::dataset::{CameraKind, SynthConfig, WorldSource, encode_rgb};
+use synth::dataset::{
+    CameraKind, SynthConfig, WorldSource, encode_depth_mm, encode_planes, encode_rgb,
+};
 use synth::render::{RenderMode, RenderOptions, RenderScene, Renderer};
 use synth::trajectory::{self, PosedFrame, Rig, WalkConfig};
+use synth::variants::Crowd;
 use synth::{PlaceKind, Variant, World};
 
 /// What the demo renders. Stored beside the dataset (`demo-plan.toml`) so a second run with the
@@ -55,7 +58,22 @@ pub struct ScenePlan {
     /// Appearance variant of the test walk. Left out of the plan file when `normal`.
     #[serde(default = "normal", skip_serializing_if = "is_normal")]
     pub test_variant: String,
+    /// Render the training walks with randomised materials (shape-biased training's domain
+    /// randomisation), a new draw every [`MATERIAL_CHUNK`] frames.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub random_materials: bool,
+    /// Also write every frame's depth and dominant-plane ids (`depth/`, `planes/`), which the
+    /// plane task trains on.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub depth: bool,
 }
+
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
+/// Frames of a training walk rendered with one draw of randomised materials.
+pub const MATERIAL_CHUNK: usize = 50;
 
 fn textured() -> String {
     RenderMode::Textured.to_string()
@@ -123,6 +141,26 @@ struct Sequence {
     name: String,
     variant: Variant,
     frames: Vec<PosedFrame>,
+    /// Seed of the randomised materials of the sequence's first chunk of frames (the next
+    /// chunks count on from it), `None` for the building's own.
+    materials: Option<u64>,
+}
+
+impl Sequence {
+    fn new(name: String, variant: Variant, frames: Vec<PosedFrame>) -> Sequence {
+        Sequence {
+            name,
+            variant,
+            frames,
+            materials: None,
+        }
+    }
+
+    /// The materials seed of frame `k`, if randomised.
+    fn materials_of(&self, k: usize) -> Option<u64> {
+        self.materials
+            .map(|seed| seed.wrapping_add((k / MATERIAL_CHUNK) as u64))
+    }
 }
 
 /// The building of the plan under `variant`, with the variant's changes applied.
@@ -167,23 +205,28 @@ fn sequences(plan: &ScenePlan) -> Result<Vec<Sequence>> {
     let mut seqs = Vec::new();
     for (v, variant) in plan.variants()?.into_iter().enumerate() {
         for w in 0..plan.walks_per_variant {
-            seqs.push(Sequence {
-                name: format!("train-{}-{w}", variant.name()),
+            let k = (v * 100 + w) as u64;
+            let mut seq = Sequence::new(
+                format!("train-{}-{w}", variant.name()),
                 variant,
-                frames: walk(plan.frames_per_walk, (v * 100 + w) as u64)?,
-            });
+                walk(plan.frames_per_walk, k)?,
+            );
+            seq.materials = plan
+                .random_materials
+                .then(|| (plan.seed * 1000 + k) << 16);
+            seqs.push(seq);
         }
     }
-    seqs.push(Sequence {
-        name: "val".into(),
-        variant: Variant::Normal,
-        frames: walk(plan.val_frames, 900)?,
-    });
-    seqs.push(Sequence {
-        name: TEST_SEQ.into(),
-        variant: plan.test_variant()?,
-        frames: walk(plan.test_frames, 901)?,
-    });
+    seqs.push(Sequence::new(
+        "val".into(),
+        Variant::Normal,
+        walk(plan.val_frames, 900)?,
+    ));
+    seqs.push(Sequence::new(
+        TEST_SEQ.into(),
+        plan.test_variant()?,
+        walk(plan.test_frames, 901)?,
+    ));
     Ok(seqs)
 }
 
@@ -218,92 +261,209 @@ pub fn render(plan: &ScenePlan, dir: &Path, progress: &(dyn Fn(usize) + Sync)) -
     if done {
         return Ok(false);
     }
-    let frames_dir = dir.join("frames");
-    std::fs::create_dir_all(&frames_dir)
-        .with_context(|| format!("cannot create {}", frames_dir.display()))?;
     let seqs = sequences(plan)?;
-    let camera = camera(plan)?;
-    let train_mode = plan.train_mode()?;
-    let counter = AtomicUsize::new(0);
-    let mut first = 0;
-    let mut starts = Vec::new();
-    for s in &seqs {
-        starts.push(first);
-        first += s.frames.len();
-    }
-    let mut variants: Vec<Variant> = seqs.iter().map(|s| s.variant).collect();
-    variants.dedup();
-    variants.sort_by_key(|v| v.name());
-    variants.dedup();
-    for variant in variants {
-        let todo: Vec<(usize, &Sequence)> = seqs
-            .iter()
-            .enumerate()
-            .filter(|(_, s)| s.variant == variant)
-            .map(|(i, s)| (starts[i], s))
-            .collect();
-        let world = world(plan, variant)?;
-        let scene = RenderScene::new(&world)?;
-        let shots: Vec<Shot> = todo
-            .iter()
-            .flat_map(|(start, s)| {
-                let mode = if s.name == TEST_SEQ {
-                    RenderMode::Textured
-                } else {
-                    train_mode
-                };
-                s.frames
-                    .iter()
-                    .enumerate()
-                    .map(move |(k, f)| (start + k, f, mode))
-            })
-            .collect();
-        render_shots(
-            plan,
-            &scene,
-            &camera,
-            &shots,
-            &frames_dir,
-            &counter,
-            progress,
-        )?;
-    }
-    write_metadata(plan, dir, &seqs, &camera, None)?;
+    render_sequences(plan, dir, &seqs, progress)?;
+    write_metadata(plan, dir, &seqs, &camera(plan)?, None)?;
     data::io::write_atomic(&plan_path, |w| w.write_all(plan_text.as_bytes()))
         .with_context(|| format!("cannot write {}", plan_path.display()))?;
     Ok(true)
 }
 
-/// One frame to render: frame number, pose, render mode.
-type Shot<'a> = (usize, &'a PosedFrame, RenderMode);
-
-/// Renders `shots` into `frames_dir`, in parallel.
-fn render_shots(
+/// Renders every frame of `seqs` into `dir` (`frames/`, and `depth/` and `planes/` when the
+/// plan asks), numbered in order, in parallel. Frames are grouped by what they are rendered
+/// from: the building under the sequence's variant, with one draw of randomised materials per
+/// chunk of a training walk, and the people of the `people` variant walking the zone.
+fn render_sequences(
     plan: &ScenePlan,
-    scene: &RenderScene,
-    camera: &geom::Camera,
+    dir: &Path,
+    seqs: &[Sequence],
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<()> {
+    let mut subs = vec!["frames"];
+    if plan.depth {
+        subs.extend(["depth", "planes"]);
+    }
+    for sub in subs {
+        let d = dir.join(sub);
+        std::fs::create_dir_all(&d).with_context(|| format!("cannot create {}", d.display()))?;
+    }
+    let camera = camera(plan)?;
+    let train_mode = plan.train_mode()?;
+    // (variant, materials seed) -> the frames rendered from that world.
+    let mut groups: BTreeMap<(&'static str, Option<u64>), Vec<Shot>> = BTreeMap::new();
+    let mut index = 0;
+    for (s, seq) in seqs.iter().enumerate() {
+        let mode = if seq.name.starts_with(TEST_SEQ) {
+            RenderMode::Textured
+        } else {
+            train_mode
+        };
+        for (k, frame) in seq.frames.iter().enumerate() {
+            groups
+                .entry((seq.variant.name(), seq.materials_of(k)))
+                .or_default()
+                .push(Shot {
+                    index,
+                    seq: s,
+                    frame,
+                    mode,
+                });
+            index += 1;
+        }
+    }
+    let counter = AtomicUsize::new(0);
+    let mut worlds: BTreeMap<&'static str, World> = BTreeMap::new();
+    for ((variant_name, materials), shots) in groups {
+        let variant: Variant = variant_name
+            .parse()
+            .map_err(|e| anyhow::anyhow!("variant '{variant_name}': {e}"))?;
+        if !worlds.contains_key(variant_name) {
+            worlds.insert(variant_name, world(plan, variant)?);
+        }
+        let mut world = worlds[variant_name].clone();
+        if let Some(seed) = materials {
+            synth::variants::randomize_materials(&mut world, seed);
+        }
+        let people = (variant == Variant::People)
+            .then(|| people(plan, &mut world, seqs))
+            .transpose()?;
+        let scene = RenderScene::new(&world)?;
+        let ctx = RenderContext {
+            plan,
+            dir,
+            scene: &scene,
+            camera: &camera,
+            world: &world,
+            people: people.as_ref(),
+        };
+        render_shots(&ctx, &shots, &counter, progress)?;
+    }
+    Ok(())
+}
+
+/// A crowd walking the plan's zone, and for each sequence the people left out of it because
+/// they would come too close to its camera (for the whole sequence, so nobody pops in or out).
+struct People {
+    crowd: Crowd,
+    left_out: Vec<Vec<bool>>,
+}
+
+fn people(plan: &ScenePlan, world: &mut World, seqs: &[Sequence]) -> Result<People> {
+    world.walk = zone_world(plan)?.walk;
+    let count = Crowd::suggested_count(world).max(6);
+    let crowd = Crowd::new(world, count, plan.seed);
+    let left_out = seqs
+        .iter()
+        .map(|s| {
+            let cameras: Vec<_> = s
+                .frames
+                .iter()
+                .map(|f| (f.t, nalgebra::Point3::from(f.pose.position())))
+                .collect();
+            crowd.too_close(world, &cameras, synth::dataset::PERSON_CLEARANCE_M)
+        })
+        .collect();
+    Ok(People { crowd, left_out })
+}
+
+/// One frame to render.
+struct Shot<'a> {
+    /// Frame number in the dataset.
+    index: usize,
+    /// Index of its sequence.
+    seq: usize,
+    frame: &'a PosedFrame,
+    mode: RenderMode,
+}
+
+/// What every frame of one group is rendered with.
+struct RenderContext<'a> {
+    plan: &'a ScenePlan,
+    dir: &'a Path,
+    scene: &'a RenderScene,
+    camera: &'a geom::Camera,
+    world: &'a World,
+    people: Option<&'a People>,
+}
+
+/// Renders `shots` into the context's folder, in parallel.
+fn render_shots(
+    ctx: &RenderContext<'_>,
     shots: &[Shot<'_>],
-    frames_dir: &Path,
     counter: &AtomicUsize,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<()> {
+    let plan = ctx.plan;
     shots.par_iter().try_for_each_init(
         Renderer::new,
-        |renderer, &(index, frame, mode)| -> Result<()> {
+        |renderer, shot| -> Result<()> {
             let opts = RenderOptions {
-                mode,
-                seed: plan.seed.wrapping_mul(1_000_003).wrapping_add(index as u64),
+                mode: shot.mode,
+                seed: plan.seed.wrapping_mul(1_000_003).wrapping_add(shot.index as u64),
                 ..RenderOptions::default()
             };
-            let img = renderer.render(scene, camera, &frame.pose, &opts, &[])?;
-            let png = encode_rgb(&img.rgb)?;
-            let path = frames_dir.join(format!("{}.png", native::frame_name(index as u64)));
-            data::io::write_atomic(&path, |w| w.write_all(&png))
-                .with_context(|| format!("cannot write {}", path.display()))?;
+            let extra = ctx
+                .people
+                .map(|p| {
+                    p.crowd
+                        .triangles_without(ctx.world, shot.frame.t, &p.left_out[shot.seq])
+                })
+                .unwrap_or_default();
+            let img = renderer.render(ctx.scene, ctx.camera, &shot.frame.pose, &opts, &extra)?;
+            let name = format!("{}.png", native::frame_name(shot.index as u64));
+            let write = |sub: &str, png: Vec<u8>| -> Result<()> {
+                let path = ctx.dir.join(sub).join(&name);
+                data::io::write_atomic(&path, |w| w.write_all(&png))
+                    .with_context(|| format!("cannot write {}", path.display()))
+            };
+            write("frames", encode_rgb(&img.rgb)?)?;
+            if plan.depth {
+                write("depth", encode_depth_mm(&img.depth, plan.width, plan.height)?)?;
+                write("planes", encode_planes(&img.plane, plan.width, plan.height)?)?;
+            }
             progress(counter.fetch_add(1, Ordering::Relaxed) + 1);
             Ok(())
         },
     )
+}
+
+/// The same held-out test walk under each of `variants` (sequences `test-<variant>`, all in
+/// the test split), rendered photo-like into `dir` as one native dataset unless `dir` already
+/// holds it: the appearance changes, nothing else does.
+pub fn render_variant_walks(
+    plan: &ScenePlan,
+    dir: &Path,
+    variants: &[Variant],
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<()> {
+    let names: Vec<&str> = variants.iter().map(|v| v.name()).collect();
+    let key = format!(
+        "{}variant_walks = {names:?}\n",
+        toml::to_string(plan)?
+    );
+    let plan_path = dir.join(PLAN_TOML);
+    if std::fs::read_to_string(&plan_path).is_ok_and(|t| t == key)
+        && dir.join(native::POSES_CSV).is_file()
+    {
+        return Ok(());
+    }
+    let zone = zone_world(plan)?;
+    let cfg = WalkConfig::for_rig(rig(plan));
+    let frames = trajectory::walk(&zone, &cfg, plan.test_frames, plan.seed * 1000 + 901)?;
+    let seqs: Vec<Sequence> = variants
+        .iter()
+        .map(|&v| Sequence::new(format!("{TEST_SEQ}-{}", v.name()), v, frames.clone()))
+        .collect();
+    let plain = ScenePlan {
+        depth: false,
+        random_materials: false,
+        ..plan.clone()
+    };
+    render_sequences(&plain, dir, &seqs, progress)?;
+    write_metadata(plan, dir, &seqs, &camera(plan)?, None)?;
+    data::io::write_atomic(&plan_path, |w| w.write_all(key.as_bytes()))
+        .with_context(|| format!("cannot write {}", plan_path.display()))?;
+    Ok(())
 }
 
 /// Walks through the plan's zone joined by hard cuts to other places (`segments` walks of
@@ -337,31 +497,14 @@ pub fn render_cut_walk(
     {
         return Ok(cuts);
     }
-    let frames_dir = dir.join("frames");
-    std::fs::create_dir_all(&frames_dir)
-        .with_context(|| format!("cannot create {}", frames_dir.display()))?;
-    let world = world(plan, Variant::Normal)?;
-    let scene = RenderScene::new(&world)?;
+    let seqs = [Sequence::new(TEST_SEQ.into(), Variant::Normal, frames)];
+    let plain = ScenePlan {
+        depth: false,
+        random_materials: false,
+        ..plan.clone()
+    };
+    render_sequences(&plain, dir, &seqs, progress)?;
     let camera = camera(plan)?;
-    let shots: Vec<Shot> = frames
-        .iter()
-        .enumerate()
-        .map(|(k, f)| (k, f, RenderMode::Textured))
-        .collect();
-    render_shots(
-        plan,
-        &scene,
-        &camera,
-        &shots,
-        &frames_dir,
-        &AtomicUsize::new(0),
-        progress,
-    )?;
-    let seqs = [Sequence {
-        name: TEST_SEQ.into(),
-        variant: Variant::Normal,
-        frames,
-    }];
     write_metadata(plan, dir, &seqs, &camera, Some(&cuts))?;
     data::io::write_atomic(&plan_path, |w| w.write_all(key.as_bytes()))
         .with_context(|| format!("cannot write {}", plan_path.display()))?;

@@ -5,6 +5,7 @@ pub(crate) mod cuts;
 mod markers_distance;
 mod place_split;
 mod render_types;
+mod robustness;
 mod sequence;
 mod track;
 
@@ -34,6 +35,10 @@ enum Study {
     /// Train on each synthetic render mode (shaded, textured, edges, gradmag), test on a
     /// differently textured photo-like walk: synthetic-to-real transfer, as BIM-PoseNet.
     RenderTypes(render_types::RenderTypesArgs),
+    /// Robustness to appearance change: baseline, shape-biased and shape-biased + planes
+    /// networks trained under normal conditions, tested on one walk under every appearance
+    /// variant (lights off, dim, people, furniture, posters, disaster, texture swap).
+    Robustness(robustness::RobustnessArgs),
     /// Place recognition (building, floor, corridor and direction): a random frame split
     /// against a split by recording session, with held-out walks under another appearance,
     /// per-class precision / recall and confusion matrices.
@@ -50,6 +55,7 @@ pub fn run(args: &StudyArgs) -> Result<()> {
         Study::Sequence(a) => sequence::run(a),
         Study::Track(a) => track::run(a),
         Study::RenderTypes(a) => render_types::run(a),
+        Study::Robustness(a) => robustness::run(a),
         Study::PlaceSplit(a) => place_split::run(a),
         Study::MarkersDistance(a) => markers_distance::run(a),
     }
