@@ -49,10 +49,12 @@ fn demo_runs_end_to_end_and_resumes() -> TestResult {
         "data:image/png;base64",
         "median position error",
         "Scene cuts",
+        "What the network looks at",
     ] {
         assert!(html.contains(needle), "report lacks {needle}");
     }
     assert!(out.join("report").join("frames.png").is_file());
+    assert!(out.join("report").join("saliency.png").is_file());
 
     let second = run()?;
     assert_eq!(second["reused_frames"], true);

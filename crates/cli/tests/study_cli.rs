@@ -72,6 +72,96 @@ fn study_render_types_trains_per_mode_and_tests_on_photo_like_frames() -> TestRe
 }
 
 #[test]
+fn study_robustness_tests_three_models_under_every_variant_and_explain_draws_their_maps()
+-> TestResult {
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("rob");
+    let mut args = vec!["study", "robustness", "--out", out.to_str().ok_or("path")?];
+    args.extend(TOY);
+    args.push("--json");
+    let o = json_of(&indoorloc(&args)?)?;
+    let rows = o["rows"].as_array().ok_or("rows")?;
+    let variants = [
+        "normal",
+        "some-lights-off",
+        "dim",
+        "people",
+        "furniture-moved",
+        "posters-changed",
+        "disaster",
+        "texture-swap",
+    ];
+    assert_eq!(rows.len(), 3 * variants.len());
+    for (i, r) in rows.iter().enumerate() {
+        assert_eq!(
+            r["model"],
+            ["baseline", "shape", "shape+planes"][i / variants.len()]
+        );
+        assert_eq!(r["variant"], variants[i % variants.len()]);
+        for key in ["median_pos_m", "median_rot_deg"] {
+            let v = r[key].as_f64().ok_or(key)?;
+            assert!(v.is_finite() && v >= 0.0, "{key} {v}");
+        }
+    }
+    let models = o["models"].as_array().ok_or("models")?;
+    assert!(models[2]["val_plane_accuracy"].as_f64().is_some());
+    assert!(models[0].get("val_plane_accuracy").is_none());
+    // Only the training walks of the shape-biased models are repainted; only the plane model's
+    // dataset has depth and plane ids; every variant's walk has the same poses.
+    let plan = |m: &str| std::fs::read_to_string(out.join(m).join("data").join("demo-plan.toml"));
+    assert!(!plan("baseline")?.contains("random_materials"));
+    assert!(plan("shape")?.contains("random_materials = true"));
+    assert!(plan("shape-planes")?.contains("depth = true"));
+    assert!(out.join("shape-planes/data/planes/000000.png").is_file());
+    assert!(!out.join("shape/data/depth").exists());
+    let walks = data::native::NativeDataset::open(&out.join("test-walks"))?;
+    let poses = |seq: &str| -> Vec<[f64; 3]> {
+        walks
+            .trajectory
+            .frames
+            .iter()
+            .filter(|f| f.seq == seq)
+            .map(|f| f.pose.position())
+            .collect()
+    };
+    assert_eq!(poses("test-normal").len(), 24);
+    assert_eq!(poses("test-normal"), poses("test-disaster"));
+    assert!(std::fs::read_to_string(out.join("report.html"))?.contains("Error CDF: people"));
+
+    // Grad-CAM of a trained model over the test walk's frames.
+    let pictures = dir.path().join("cam");
+    let o = json_of(&indoorloc(&[
+        "explain",
+        "--model",
+        out.join("shape-planes/model").to_str().ok_or("path")?,
+        out.join("test-walks/frames").to_str().ok_or("path")?,
+        "--out",
+        pictures.to_str().ok_or("path")?,
+        "--every",
+        "10",
+        "--max",
+        "3",
+        "--json",
+    ])?)?;
+    let rows = o.as_array().ok_or("explain rows")?;
+    assert_eq!(rows.len(), 3);
+    assert_eq!(rows[1]["frame"], "000010");
+    for r in rows {
+        let picture = std::path::PathBuf::from(r["picture"].as_str().ok_or("picture")?);
+        let img = image::open(&picture)?;
+        assert_eq!((img.width(), img.height()), (160, 120));
+        let peak = r["peak"].as_array().ok_or("peak")?;
+        assert!(
+            peak.iter()
+                .all(|p| p.as_f64().is_some_and(|v| (0.0..=1.0).contains(&v)))
+        );
+    }
+    let bad = indoorloc(&["explain", "--model", "/nonexistent", "x.png"])?;
+    assert_eq!(bad.status.code(), Some(2));
+    Ok(())
+}
+
+#[test]
 fn study_place_split_reports_both_splits_and_confusion_matrices() -> TestResult {
     let dir = tempfile::tempdir()?;
     let out = dir.path().join("places");

@@ -47,7 +47,7 @@ pub mod train;
 pub mod window;
 
 pub use error::{LearnError, Result};
-pub use explain::Saliency;
+pub use explain::{CamLayer, Explainer, Saliency};
 pub use head::{PoseCoding, Task};
 pub use infer::{Estimate, Localizer};
 pub use net::{Arch, HeadConfig, NetConfig, PoseNet};

@@ -152,7 +152,7 @@ pub struct TrainConfig {
     /// [`crate::loader::jitter_view`]).
     #[serde(default)]
     pub augment: bool,
-    /// Shape-biased training: restyle every training view (random tone curves, inversion,
+    /// Shape-biased training: restyle half the training views (random tone curves, inversion,
     /// texture, coloured light; edges kept, see [`crate::loader::style_view`]) so the network
     /// cannot key on paint and light.
     #[serde(default)]

@@ -353,13 +353,22 @@ fn the_plane_branch_and_shape_bias_train_and_the_network_can_be_explained() {
     assert!(loc.meta().net.planes && loc.meta().config.shape_bias);
     let (pos, _) = val_errors(&loc, &data);
     assert!((pos - summary.val_median_pos_m).abs() < 1e-3);
-    // Grad-CAM on the last map (2x2 cells for a 64x48 view): values in [0, 1], the peak at 1.
+    // Grad-CAM on the stride-8 map (8x6 cells for a 64x48 view) and on the last (2x2):
+    // values in [0, 1], the peak at 1, one score.
     let img = image::open(data.join("frames/000005.png")).unwrap();
-    let cam = loc.grad_cam(&loc.view(&img).unwrap()).unwrap();
-    assert_eq!((cam.width, cam.height), (2, 2));
-    assert!(cam.values.iter().all(|v| (0.0..=1.0).contains(v)));
-    assert!(cam.values.contains(&1.0), "{cam:?}");
-    assert!(cam.score > 0.0);
+    let explainer = learn::Explainer::load(&summary.out).unwrap();
+    let view = explainer.view(&img).unwrap();
+    let mid = explainer.grad_cam(&view, learn::CamLayer::Mid).unwrap();
+    let last = explainer.grad_cam(&view, learn::CamLayer::Last).unwrap();
+    assert_eq!(
+        (mid.width, mid.height, last.width, last.height),
+        (8, 6, 2, 2)
+    );
+    for cam in [&mid, &last] {
+        assert!(cam.values.iter().all(|v| (0.0..=1.0).contains(v)));
+        assert!(cam.values.contains(&1.0), "{cam:?}");
+    }
+    assert!(mid.score > 0.0 && (mid.score - last.score).abs() < 1e-6 * mid.score);
     // Without plane ids the planes are found in the depth (RANSAC) and training still works.
     std::fs::remove_dir_all(data.join("planes")).unwrap();
     let mut cfg = tiny_config(&data, &tmp.path().join("model-ransac"), 1);

@@ -78,7 +78,9 @@ mod tests {
         assert!(hot[0] > 200 && hot[1] > 200, "{hot:?}");
         assert!(cold.iter().all(|&c| (60..=110).contains(&c)), "{cold:?}");
         // Between the two cell centres the map rises smoothly, and so does the brightness.
-        let luma = |p: [u8; 3]| 0.299 * f32::from(p[0]) + 0.587 * f32::from(p[1]) + 0.114 * f32::from(p[2]);
+        let luma = |p: [u8; 3]| {
+            0.299 * f32::from(p[0]) + 0.587 * f32::from(p[1]) + 0.114 * f32::from(p[2])
+        };
         let row: Vec<f32> = (0..40).map(|x| luma(out.get_pixel(x, 10).0)).collect();
         assert!(row.windows(2).all(|w| w[1] >= w[0] - 1.0), "{row:?}");
         assert!(row[39] > row[0] + 100.0);

@@ -5,7 +5,7 @@ use crate::output::{print_json, print_text};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use data::frames;
-use learn::{Estimate, Localizer, Saliency};
+use learn::{CamLayer, Estimate, Explainer, Localizer, Saliency};
 use report::Table;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -27,6 +27,10 @@ pub struct ExplainArgs {
     /// Stop after this many pictures.
     #[arg(long, default_value_t = 32)]
     max: usize,
+    /// The feature map weighed: `mid` (the backbone's stride-8 map, finer) or `last` (its last
+    /// map, Grad-CAM's usual choice).
+    #[arg(long, default_value = "mid", value_parser = ["mid", "last"])]
+    layer: String,
     /// Print one JSON document instead of a table.
     #[arg(long)]
     json: bool,
@@ -49,14 +53,32 @@ struct Row {
     hot_share: f64,
 }
 
+/// A model loaded to localize and to explain.
+pub(crate) struct Explained {
+    loc: Localizer,
+    explainer: Explainer,
+    layer: CamLayer,
+}
+
+impl Explained {
+    /// Loads the model folder `dir` twice over: for inference and on an autodiff device.
+    pub(crate) fn load(dir: &Path, layer: CamLayer) -> Result<Explained> {
+        Ok(Explained {
+            loc: Localizer::load(dir)?,
+            explainer: Explainer::load(dir)?,
+            layer,
+        })
+    }
+}
+
 /// A frame's estimate and Grad-CAM map, and the map drawn over the frame.
 pub(crate) fn explain_image(
-    loc: &Localizer,
+    model: &Explained,
     img: &image::DynamicImage,
 ) -> Result<(Estimate, Saliency, image::RgbImage)> {
-    let view = loc.view(img)?;
-    let est = loc.predict_view(&view, 0)?;
-    let cam = loc.grad_cam(&view)?;
+    let view = model.loc.view(img)?;
+    let est = model.loc.predict_view(&view, 0)?;
+    let cam = model.explainer.grad_cam(&view, model.layer)?;
     let overlay = report::saliency_overlay(&img.to_rgb8(), cam.width, cam.height, &cam.values)?;
     Ok((est, cam, overlay))
 }
@@ -72,7 +94,7 @@ pub(crate) fn write_png(path: &Path, img: &image::RgbImage) -> Result<()> {
 
 /// Runs `indoorloc explain`.
 pub fn run(args: &ExplainArgs) -> Result<()> {
-    let loc = Localizer::load(&args.model)?;
+    let model = Explained::load(&args.model, args.layer.parse()?)?;
     let source = frames::open(&args.input)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
@@ -86,7 +108,7 @@ pub fn run(args: &ExplainArgs) -> Result<()> {
         }
         let frame = frame?;
         let img = image::DynamicImage::ImageRgb8(frame.image);
-        let (est, cam, overlay) = explain_image(&loc, &img)
+        let (est, cam, overlay) = explain_image(&model, &img)
             .with_context(|| format!("{}: frame {}", args.input.display(), frame.name))?;
         let picture = args.out.join(format!("{}.cam.png", frame.name));
         write_png(&picture, &overlay)?;
@@ -108,7 +130,15 @@ pub fn run(args: &ExplainArgs) -> Result<()> {
     }
     let mut t = Table::new(
         "Grad-CAM: what the network looks at for the position",
-        ["frame", "x (m)", "y (m)", "z (m)", "peak (x, y)", "hot cells", "picture"],
+        [
+            "frame",
+            "x (m)",
+            "y (m)",
+            "z (m)",
+            "peak (x, y)",
+            "hot cells",
+            "picture",
+        ],
     );
     for r in &rows {
         t.push_row([

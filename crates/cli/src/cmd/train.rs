@@ -104,6 +104,15 @@ pub struct TrainArgs {
     /// occluding rectangles (photometric only, so every pose label stays true).
     #[arg(long)]
     augment: bool,
+    /// Shape-biased training: restyle half the training views (random tone curves, inversion,
+    /// material texture, coloured light; edges kept) so the network learns shape, not paint.
+    #[arg(long)]
+    shape_bias: bool,
+    /// Train a dominant-plane branch beside the pose (classes, plane parameters and the depth
+    /// they induce); needs `depth/` for every frame, and uses `planes/` when there (else the
+    /// planes are found in the depth by RANSAC).
+    #[arg(long)]
+    planes: bool,
     /// Stop after this many epochs without a better validation median position error.
     #[arg(long, default_value_t = 10)]
     patience: usize,
@@ -160,6 +169,8 @@ impl TrainArgs {
         cfg.aleatoric = self.aleatoric.unwrap_or(!self.learned_weighting);
         cfg.split = self.split;
         cfg.augment = self.augment;
+        cfg.shape_bias = self.shape_bias;
+        cfg.planes = self.planes;
         cfg.patience = Some(self.patience);
         cfg.seed = self.seed;
         cfg.resume = self.resume;
@@ -212,6 +223,10 @@ struct SeqOutput {
 
 /// The place classifier's configuration these arguments describe.
 pub fn place_config(args: &TrainArgs) -> Result<PlaceConfig> {
+    anyhow::ensure!(
+        !(args.shape_bias || args.planes),
+        "--shape-bias and --planes train pose networks; a place classifier takes --augment"
+    );
     let mut cfg = PlaceConfig::new(&args.data, &args.out);
     cfg.arch = args.arch;
     cfg.view = args.view.clone();
@@ -395,12 +410,14 @@ pub fn train_with_progress(cfg: &TrainConfig, lines: bool) -> Result<TrainSummar
         },
         epoch: &|m: &EpochMetrics| {
             format!(
-                "epoch {:>3}  loss {:.4}  train {:.3} m  val median {:.3} m {:.2}°  lr {:.2e}  {:.1} s",
+                "epoch {:>3}  loss {:.4}  train {:.3} m  val median {:.3} m {:.2}°{}  lr {:.2e}  {:.1} s",
                 m.epoch,
                 m.train_loss,
                 m.train_pos_m,
                 m.val_median_pos_m,
                 m.val_median_rot_deg,
+                m.val_plane_accuracy
+                    .map_or(String::new(), |a| format!("  planes {:.1} %", 100.0 * a)),
                 m.lr,
                 m.seconds
             )

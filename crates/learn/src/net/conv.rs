@@ -60,8 +60,10 @@ impl ConvBn {
         };
         let [cout, ..] = self.conv.weight.dims();
         let weight = self.conv.weight.val() * scale.reshape([cout, 1, 1, 1]);
-        self.conv.weight = Param::from_tensor(weight);
-        self.conv.bias = Some(Param::from_tensor(bias));
+        // Detached: on an autodiff device the folded weights are new leaves (a parameter must
+        // be one), not the end of a graph through the BatchNorm's statistics.
+        self.conv.weight = Param::from_tensor(weight.detach());
+        self.conv.bias = Some(Param::from_tensor(bias.detach()));
         self.folded = true;
         self
     }

@@ -151,6 +151,11 @@ impl InceptionNet {
         self.forward_mid(x).1
     }
 
+    /// The rest of the body from the stride-8 map of [`InceptionNet::forward_mid`].
+    pub fn forward_tail(&self, mid: Tensor<4>) -> Tensor<4> {
+        self.inception4a.forward(self.pool3.forward(mid))
+    }
+
     /// The stride-8 map (after inception 3b, 480 channels) and the output of
     /// [`InceptionNet::forward`].
     pub fn forward_mid(&self, x: Tensor<4>) -> (Tensor<4>, Tensor<4>) {

@@ -326,6 +326,15 @@ impl Backbone {
         }
     }
 
+    /// The final map from the stride-8 map.
+    pub(crate) fn forward_tail(&self, mid: Tensor<4>) -> Tensor<4> {
+        match self {
+            Backbone::Small(n) => n.forward_tail(mid),
+            Backbone::ResNet(n) => n.forward_tail(mid),
+            Backbone::Inception(n) => n.forward_tail(mid),
+        }
+    }
+
     /// The stride-8 map and the final map.
     pub(crate) fn forward_mid(&self, x: Tensor<4>) -> (Tensor<4>, Tensor<4>) {
         match self {
@@ -507,15 +516,33 @@ impl PoseNet {
         (features, planes)
     }
 
-    /// The pooled features of the plane branch `[B, PLANE_FEATURES]` (none without one): the
-    /// part of the pose head's input that does not come from [`PoseNet::feature_map`].
-    pub(crate) fn plane_features(&self, x: Tensor<4>) -> Option<Tensor<2>> {
-        let branch = self.planes.as_ref()?;
-        let (mid, _) = self.backbone.forward_mid(x);
-        Some(self.pool.forward(branch.features(mid)).flatten(1, 3))
+    /// The stride-8 map `[B, F8, h, w]` of the (first) backbone.
+    pub(crate) fn mid_map(&self, x: Tensor<4>) -> Tensor<4> {
+        self.backbone.forward_mid(x).0
     }
 
-    /// The first network's hidden layer (if any) and output layer, for Grad-CAM.
+    /// The outputs from the first backbone's stride-8 map `mid` (and, with two networks, the
+    /// input `x` for the rotation network), without dropout: Grad-CAM differentiates them
+    /// with respect to `mid` or to the final map on the way.
+    pub(crate) fn forward_from_mid(
+        &self,
+        mid: Tensor<4>,
+        x: Tensor<4>,
+        last: &mut dyn FnMut(Tensor<4>) -> Tensor<4>,
+    ) -> Tensor<2> {
+        let map = last(self.backbone.forward_tail(mid.clone()));
+        let mut parts = vec![self.pool.forward(map).flatten(1, 3)];
+        if let Some(branch) = &self.planes {
+            parts.push(self.pool.forward(branch.features(mid)).flatten(1, 3));
+        }
+        if let Some(rotation) = &self.rotation {
+            parts.push(rotation.parts().features(x));
+        }
+        self.head_masked(Tensor::cat(parts, 1), Vec::new())
+    }
+
+    /// The first network's hidden layer (if any) and output layer.
+    #[cfg(test)]
     pub(crate) fn head_layers(&self) -> (Option<&Linear>, &Linear) {
         (self.hidden.as_ref(), &self.head)
     }

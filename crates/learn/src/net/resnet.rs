@@ -111,6 +111,14 @@ impl ResNet {
         self.forward_mid(x).1
     }
 
+    /// The rest of the body from the stride-8 map of [`ResNet::forward_mid`].
+    pub fn forward_tail(&self, mut x: Tensor<4>) -> Tensor<4> {
+        for block in &self.blocks[self.mid_blocks.min(self.blocks.len())..] {
+            x = block.forward(x);
+        }
+        x
+    }
+
     /// The stride-8 map (after the second stage, 128 channels) and the output of
     /// [`ResNet::forward`].
     pub fn forward_mid(&self, x: Tensor<4>) -> (Tensor<4>, Tensor<4>) {

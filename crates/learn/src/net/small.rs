@@ -51,6 +51,14 @@ impl SmallNet {
         self.forward_mid(x).1
     }
 
+    /// The rest of the body from the stride-8 map of [`SmallNet::forward_mid`].
+    pub fn forward_tail(&self, mut x: Tensor<4>) -> Tensor<4> {
+        for stage in &self.stages[MID_STAGES..] {
+            x = relu(stage.forward(x));
+        }
+        x
+    }
+
     /// The stride-8 map (after the third stage, 128 channels) and the output of
     /// [`SmallNet::forward`].
     pub fn forward_mid(&self, mut x: Tensor<4>) -> (Tensor<4>, Tensor<4>) {

@@ -72,7 +72,7 @@ pub struct DemoArgs {
     #[arg(long, value_delimiter = ',', value_name = "VARIANTS")]
     train_variants: Vec<String>,
     /// Shape-biased training: the training walks are rendered with randomised materials (a
-    /// new draw every 50 frames) and every training view is restyled (random tone curves,
+    /// new draw every 100 frames) and half the training views are restyled (random tone curves,
     /// texture and coloured light, edges kept), so the network learns the building's shape
     /// rather than its paint.
     #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]

@@ -204,7 +204,7 @@ const SALIENCY_FRAMES: usize = 6;
 
 /// Grad-CAM maps over test frames spread evenly along the walk, as one contact sheet.
 fn saliency_sheet(input: &PageInput) -> Result<Vec<u8>> {
-    let loc = learn::Localizer::load(input.model_dir)?;
+    let model = crate::cmd::explain::Explained::load(input.model_dir, learn::CamLayer::Mid)?;
     let mode = input.scene.train_mode()?;
     let r = input.results;
     let mut tiles = Vec::new();
@@ -216,13 +216,17 @@ fn saliency_sheet(input: &PageInput) -> Result<Vec<u8>> {
             .unwrap_or(f.index as u64);
         let photo = data::frames::decode_image(&input.dataset.frame_path(number))?;
         let (_, _, overlay) =
-            crate::cmd::explain::explain_image(&loc, &scene::photo_as(photo, mode)?)?;
+            crate::cmd::explain::explain_image(&model, &scene::photo_as(photo, mode)?)?;
         tiles.push(Tile {
             label: format!("frame {number}: {:.2} m", f.pos_err_m),
             image: overlay,
         });
     }
-    Ok(report::contact_sheet("Grad-CAM of the position", &tiles, 3)?)
+    Ok(report::contact_sheet(
+        "Grad-CAM of the position",
+        &tiles,
+        3,
+    )?)
 }
 
 fn frames_sheet(input: &PageInput, world: &synth::World) -> Result<Vec<u8>> {

@@ -73,7 +73,7 @@ fn is_false(b: &bool) -> bool {
 }
 
 /// Frames of a training walk rendered with one draw of randomised materials.
-pub const MATERIAL_CHUNK: usize = 50;
+pub const MATERIAL_CHUNK: usize = 100;
 
 fn textured() -> String {
     RenderMode::Textured.to_string()
@@ -211,9 +211,7 @@ fn sequences(plan: &ScenePlan) -> Result<Vec<Sequence>> {
                 variant,
                 walk(plan.frames_per_walk, k)?,
             );
-            seq.materials = plan
-                .random_materials
-                .then(|| (plan.seed * 1000 + k) << 16);
+            seq.materials = plan.random_materials.then(|| (plan.seed * 1000 + k) << 16);
             seqs.push(seq);
         }
     }
@@ -394,12 +392,15 @@ fn render_shots(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<()> {
     let plan = ctx.plan;
-    shots.par_iter().try_for_each_init(
-        Renderer::new,
-        |renderer, shot| -> Result<()> {
+    shots
+        .par_iter()
+        .try_for_each_init(Renderer::new, |renderer, shot| -> Result<()> {
             let opts = RenderOptions {
                 mode: shot.mode,
-                seed: plan.seed.wrapping_mul(1_000_003).wrapping_add(shot.index as u64),
+                seed: plan
+                    .seed
+                    .wrapping_mul(1_000_003)
+                    .wrapping_add(shot.index as u64),
                 ..RenderOptions::default()
             };
             let extra = ctx
@@ -418,13 +419,18 @@ fn render_shots(
             };
             write("frames", encode_rgb(&img.rgb)?)?;
             if plan.depth {
-                write("depth", encode_depth_mm(&img.depth, plan.width, plan.height)?)?;
-                write("planes", encode_planes(&img.plane, plan.width, plan.height)?)?;
+                write(
+                    "depth",
+                    encode_depth_mm(&img.depth, plan.width, plan.height)?,
+                )?;
+                write(
+                    "planes",
+                    encode_planes(&img.plane, plan.width, plan.height)?,
+                )?;
             }
             progress(counter.fetch_add(1, Ordering::Relaxed) + 1);
             Ok(())
-        },
-    )
+        })
 }
 
 /// The same held-out test walk under each of `variants` (sequences `test-<variant>`, all in
@@ -437,10 +443,7 @@ pub fn render_variant_walks(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<()> {
     let names: Vec<&str> = variants.iter().map(|v| v.name()).collect();
-    let key = format!(
-        "{}variant_walks = {names:?}\n",
-        toml::to_string(plan)?
-    );
+    let key = format!("{}variant_walks = {names:?}\n", toml::to_string(plan)?);
     let plan_path = dir.join(PLAN_TOML);
     if std::fs::read_to_string(&plan_path).is_ok_and(|t| t == key)
         && dir.join(native::POSES_CSV).is_file()

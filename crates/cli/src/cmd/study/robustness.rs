@@ -5,14 +5,14 @@
 //! (`DIR/<model>/`, reused when there):
 //! - `baseline`: the building as built (with the quick demo's photometric jitter);
 //! - `shape`: shape-biased training, the training walks rendered with randomised materials and
-//!   every view restyled (`demo --shape-bias`);
+//!   half the views restyled (`demo --shape-bias`);
 //! - `shape+planes`: the same plus the dominant-plane branch (`demo --shape-bias --planes`).
 //!
 //! All three are tested on one held-out walk rendered under each appearance variant
 //! (`DIR/test-walks/`: the same poses, only the appearance changes): normal, some lights off,
 //! dim, people walking through, furniture moved, posters changed, after a disaster, every
 //! material swapped. A model's growth under a variant is its median position error there over
-//! its own normal-condition median. With `--quick` each model trains on 6000 frames for 6
+//! its own normal-condition median. With `--quick` each model trains on 6000 frames for 8
 //! epochs, so that the three trainings and the tests stay within 15 minutes on two cores.
 
 use crate::cmd::demo::{self, Evaluation, FrameResult};
@@ -29,13 +29,17 @@ use synth::Variant;
 /// Training frames per model with `--quick`.
 const QUICK_TRAIN_FRAMES: usize = 6000;
 /// Epochs per model with `--quick`.
-const QUICK_EPOCHS: usize = 6;
+const QUICK_EPOCHS: usize = 8;
 
 /// The models compared: name, folder, extra demo options.
 const MODELS: [(&str, &str, &[&str]); 3] = [
     ("baseline", "baseline", &[]),
     ("shape", "shape", &["--shape-bias"]),
-    ("shape+planes", "shape-planes", &["--shape-bias", "--planes"]),
+    (
+        "shape+planes",
+        "shape-planes",
+        &["--shape-bias", "--planes"],
+    ),
 ];
 
 /// The held-out appearance variants (after `normal`).
@@ -145,7 +149,9 @@ pub fn run(args: &RobustnessArgs) -> Result<()> {
     for ((name, _, _), p) in MODELS.iter().zip(&prepared) {
         say(&format!("localizing the walks with {name}"));
         let per_variant = localize_variants(&ds, &p.model_dir, &variants, args.mc)?;
-        let task = learn::checkpoint::ModelMeta::read(&p.model_dir)?.coding.task;
+        let task = learn::checkpoint::ModelMeta::read(&p.model_dir)?
+            .coding
+            .task;
         let evals = per_variant
             .iter()
             .map(|r| Evaluation::of(r, task))
@@ -163,10 +169,14 @@ pub fn run(args: &RobustnessArgs) -> Result<()> {
             });
         }
         let growth: Vec<f64> = evals[1..].iter().map(|e| e.pos_median / normal).collect();
-        let (worst, worst_growth) = growth
-            .iter()
-            .enumerate()
-            .fold((0, f64::NEG_INFINITY), |b, (i, &g)| if g > b.1 { (i, g) } else { b });
+        let (worst, worst_growth) =
+            growth
+                .iter()
+                .enumerate()
+                .fold(
+                    (0, f64::NEG_INFINITY),
+                    |b, (i, &g)| if g > b.1 { (i, g) } else { b },
+                );
         let meta = learn::checkpoint::ModelMeta::read(&p.model_dir)?;
         models.push(ModelSummary {
             model: name.to_string(),
@@ -220,7 +230,11 @@ fn localize_variants(
             let index: Vec<usize> = (0..ds.trajectory.len())
                 .filter(|&i| ds.trajectory.frames[i].seq == seq)
                 .collect();
-            ensure!(!index.is_empty(), "{}: no frames of '{seq}'", ds.root.display());
+            ensure!(
+                !index.is_empty(),
+                "{}: no frames of '{seq}'",
+                ds.root.display()
+            );
             let views = demo::views_of(ds, &index, &loc, synth::render::RenderMode::Textured)?;
             let estimates = loc.predict_batch(&views, mc)?;
             Ok(demo::frame_results(ds, &index, estimates, task))
@@ -245,7 +259,10 @@ fn table(rows: &[Row]) -> Table {
         );
     }
     header.push("× normal".into());
-    let mut t = Table::new("Trained under normal conditions, tested under each variant", header);
+    let mut t = Table::new(
+        "Trained under normal conditions, tested under each variant",
+        header,
+    );
     for r in rows {
         let mut cells = vec![
             r.variant.clone(),
@@ -304,7 +321,7 @@ fn write_report(
     page.paragraph(
         "Three networks trained on walks under normal conditions only: the baseline on the \
          building as built, 'shape' with shape-biased training (randomised materials in the \
-         training renders, every view restyled), 'shape+planes' with the dominant-plane task \
+         training renders, half the views restyled), 'shape+planes' with the dominant-plane task \
          beside it. Each is tested on one held-out walk rendered under every appearance \
          variant: the same poses, only lights, people, furniture, posters, damage or paint \
          change. Growth is a model's median position error under a variant over its own \
@@ -317,9 +334,7 @@ fn write_report(
             MODELS
                 .iter()
                 .zip(results)
-                .map(|((name, _, _), r)| {
-                    Series::new(*name, r[v].iter().map(f).collect::<Vec<_>>())
-                })
+                .map(|((name, _, _), r)| Series::new(*name, r[v].iter().map(f).collect::<Vec<_>>()))
                 .collect()
         };
         let cdf = report::error_cdf(
