@@ -198,10 +198,8 @@ pub fn style_view(
         .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {
             (a.min(v), b.max(v))
         });
-    if !(hi - lo > 1e-6)
-        || (channels != 1 && channels != 3)
-        || view.len() != channels * height * width
-    {
+    let flat = (hi - lo).is_nan() || hi - lo <= 1e-6;
+    if flat || (channels != 1 && channels != 3) || view.len() != channels * height * width {
         return;
     }
     let plane = height * width;

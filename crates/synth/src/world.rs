@@ -357,7 +357,9 @@ impl World {
 
 /// An appearance condition: the same building and trajectory under different circumstances, so
 /// evaluation can hold one out.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum Variant {
     /// As built: lights on, daylight, nothing changed.

@@ -192,11 +192,7 @@ impl NetConfig {
             pool,
             hidden,
             head,
-        } = Branch::new(
-            self,
-            self.planes.then_some(PLANE_FEATURES).unwrap_or(0),
-            device,
-        );
+        } = Branch::new(self, if self.planes { PLANE_FEATURES } else { 0 }, device);
         PoseNet {
             backbone,
             pool,

@@ -156,10 +156,7 @@ fn texture_swap_changes_every_material_colour_and_seed() {
 fn randomized_materials_are_independent_per_material_and_follow_the_seed() {
     let mut world = test_world::world();
     for k in 0..12 {
-        world.add_material(crate::world::Material::plain(
-            &format!("grey {k}"),
-            [0.5; 3],
-        ));
+        world.add_material(crate::world::Material::plain(format!("grey {k}"), [0.5; 3]));
     }
     let base = world.clone();
     randomize_materials(&mut world, 3);

@@ -288,7 +288,7 @@ fn render_sequences(
     let camera = camera(plan)?;
     let train_mode = plan.train_mode()?;
     // (variant, materials seed) -> the frames rendered from that world.
-    let mut groups: BTreeMap<(&'static str, Option<u64>), Vec<Shot>> = BTreeMap::new();
+    let mut groups: BTreeMap<(Variant, Option<u64>), Vec<Shot>> = BTreeMap::new();
     let mut index = 0;
     for (s, seq) in seqs.iter().enumerate() {
         let mode = if seq.name.starts_with(TEST_SEQ) {
@@ -298,7 +298,7 @@ fn render_sequences(
         };
         for (k, frame) in seq.frames.iter().enumerate() {
             groups
-                .entry((seq.variant.name(), seq.materials_of(k)))
+                .entry((seq.variant, seq.materials_of(k)))
                 .or_default()
                 .push(Shot {
                     index,
@@ -310,15 +310,14 @@ fn render_sequences(
         }
     }
     let counter = AtomicUsize::new(0);
-    let mut worlds: BTreeMap<&'static str, World> = BTreeMap::new();
-    for ((variant_name, materials), shots) in groups {
-        let variant: Variant = variant_name
-            .parse()
-            .map_err(|e| anyhow::anyhow!("variant '{variant_name}': {e}"))?;
-        if !worlds.contains_key(variant_name) {
-            worlds.insert(variant_name, world(plan, variant)?);
-        }
-        let mut world = worlds[variant_name].clone();
+    let mut worlds: BTreeMap<Variant, World> = BTreeMap::new();
+    for ((variant, materials), shots) in groups {
+        let mut world = match worlds.entry(variant) {
+            std::collections::btree_map::Entry::Occupied(e) => e.get().clone(),
+            std::collections::btree_map::Entry::Vacant(e) => {
+                e.insert(world(plan, variant)?).clone()
+            }
+        };
         if let Some(seed) = materials {
             synth::variants::randomize_materials(&mut world, seed);
         }
