@@ -3,6 +3,7 @@
 
 mod common;
 mod place;
+mod real_depth;
 mod real_photos;
 mod sequence;
 mod speed;
