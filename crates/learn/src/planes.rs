@@ -433,29 +433,36 @@ pub fn load(
     samples: &Samples,
     grid: [usize; 2],
 ) -> Result<(PlaneTargets, u64)> {
-    let frames = (0..samples.len())
-        .into_par_iter()
-        .map(|i| -> Result<(FrameTargets, u64)> {
-            let (_, number) = samples.frame_key(i).ok_or_else(|| {
-                LearnError::Input(format!(
-                    "{}: frame '{}' is not numbered; plane targets need a native dataset",
-                    root.display(),
-                    samples.names[i]
-                ))
-            })?;
-            let name = format!("{}.png", native::frame_name(number));
-            let depth_path = root.join("depth").join(&name);
-            if !depth_path.is_file() {
-                return Err(LearnError::Input(format!(
-                    "{}: missing; the plane task needs a depth image for every frame (render with depth, or train without planes)",
-                    depth_path.display()
-                )));
-            }
+    // The files are checked in order first, so a missing one is named the same way every run.
+    let mut names = Vec::with_capacity(samples.len());
+    for i in 0..samples.len() {
+        let (_, number) = samples.frame_key(i).ok_or_else(|| {
+            LearnError::Input(format!(
+                "{}: frame '{}' is not numbered; plane targets need a native dataset",
+                root.display(),
+                samples.names[i]
+            ))
+        })?;
+        let name = format!("{}.png", native::frame_name(number));
+        let depth_path = root.join("depth").join(&name);
+        if !depth_path.is_file() {
+            return Err(LearnError::Input(format!(
+                "{}: missing; the plane task needs a depth image for every frame (render with depth, or train without planes)",
+                depth_path.display()
+            )));
+        }
+        names.push((number, name));
+    }
+    let frames = names
+        .par_iter()
+        .map(|(number, name)| -> Result<(FrameTargets, u64)> {
+            let (number, name) = (*number, name.as_str());
+            let depth_path = root.join("depth").join(name);
             let mut hash = Fnv64::new();
             let depth = read_depth(&depth_path, &mut hash)?;
             let (w, h) = (depth.width as u32, depth.height as u32);
             let intr = Intrinsics::of(camera, w, h);
-            let ids_path = root.join("planes").join(&name);
+            let ids_path = root.join("planes").join(name);
             let ids = if ids_path.is_file() {
                 read_ids(&ids_path, depth.width, depth.height, &mut hash)?
             } else {
