@@ -10,7 +10,8 @@
 //!   peer `torch_apr.py`), [`loss`], [`head`] (what outputs mean), [`checkpoint`] (the folder
 //!   layout), [`dataset`] (views in memory), [`window`] (which runs of frames a sequence model
 //!   may see as one stretch of time), [`seq`] (the LSTM of a CNN+LSTM sequence model and its
-//!   live, resettable stream).
+//!   live, resettable stream), [`planes`] (dominant-plane targets and loss of the auxiliary
+//!   plane task), [`explain`] (Grad-CAM: [`Explainer`] and [`Saliency`]).
 //!
 //! # Backend
 //! burn 0.22 picks the backend by device: training runs on `Device::flex().autodiff()`,

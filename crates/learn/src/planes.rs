@@ -558,6 +558,7 @@ pub fn plane_loss(out: &PlaneOutputs, batch: &PlaneBatch, device: &Device) -> Pl
         .sum()
         .neg()
         .div_scalar(cells);
+    // One more than the labelled cells: a batch without any plane gives 0, not 0 / 0.
     let labelled = mask.clone().sum().add_scalar(1.0);
     let raw = out.params.clone();
     let normal = raw.clone().narrow(1, 0, 3);
