@@ -164,7 +164,7 @@ fn gradients(net: &PoseNet, x: Tensor<4>, layer: CamLayer) -> Result<MapGradient
     })
 }
 
-/// A saliency map on the network's last feature map.
+/// A Grad-CAM map on one of the backbone's feature maps ([`CamLayer`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Saliency {
     /// Map width, cells.

@@ -529,9 +529,9 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
         .map_err(|e| LearnError::Config(e.to_string()))?;
     let mut data = dataset::load(&cfg.data, &spec, cfg.seed)?;
     let planes = if cfg.planes {
-        let targets = plane_targets(cfg, &data)?;
-        data.hash = format!("{}-planes{:016x}", data.hash, targets.2);
-        Some((targets.0, targets.1))
+        let (train_planes, val_planes, files_hash) = plane_targets(cfg, &data)?;
+        data.hash = format!("{}-planes{files_hash:016x}", data.hash);
+        Some((train_planes, val_planes))
     } else {
         None
     };
