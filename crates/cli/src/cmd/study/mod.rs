@@ -61,6 +61,42 @@ pub fn run(args: &StudyArgs) -> Result<()> {
     }
 }
 
+/// The error columns the studies' tables share, after their own leading columns: median
+/// position and rotation error, mean position error, and the share of frames within each
+/// accuracy threshold `(max m, max °, share)`.
+pub(crate) struct ErrorColumns<'a> {
+    pub median_pos_m: f64,
+    pub median_rot_deg: f64,
+    pub mean_pos_m: f64,
+    pub accuracy: &'a [(f64, f64, f64)],
+}
+
+impl ErrorColumns<'_> {
+    /// `lead` then the headers of these columns (the thresholds of `accuracy`).
+    pub(crate) fn headers(lead: &[&str], accuracy: &[(f64, f64, f64)]) -> Vec<String> {
+        let mut header: Vec<String> = lead.iter().map(|s| s.to_string()).collect();
+        header.extend(["median (m)".into(), "median (°)".into(), "mean (m)".into()]);
+        header.extend(accuracy.iter().map(|(m, d, _)| format!("≤ {m} m, {d}°")));
+        header
+    }
+
+    /// `lead` then the cells of these columns.
+    pub(crate) fn cells(&self, lead: Vec<String>) -> Vec<String> {
+        let mut cells = lead;
+        cells.extend([
+            format!("{:.3}", self.median_pos_m),
+            format!("{:.2}", self.median_rot_deg),
+            format!("{:.3}", self.mean_pos_m),
+        ]);
+        cells.extend(
+            self.accuracy
+                .iter()
+                .map(|(_, _, f)| format!("{:.1} %", 100.0 * f)),
+        );
+        cells
+    }
+}
+
 /// How much a study renders and trains: the demo's quick or full setup, with overrides (small
 /// values make a study a smoke test).
 #[derive(Args, Debug, Clone, Default)]

@@ -12,6 +12,7 @@
 //! steps (8000 frames for 4 epochs, views not jittered), so that the four trainings stay within
 //! 15 minutes on two cores.
 
+use super::ErrorColumns;
 use crate::cmd::demo::{self, Evaluation, FrameResult};
 use crate::output::{print_json, print_text};
 use anyhow::{Result, ensure};
@@ -168,38 +169,27 @@ fn row(mode: &str, results: &[FrameResult], task: Task, prepared: &demo::Prepare
     })
 }
 
-fn table(rows: &[Row]) -> Table {
-    let mut header = vec![
-        "trained on".to_string(),
-        "median (m)".into(),
-        "median (°)".into(),
-        "mean (m)".into(),
-    ];
-    if let Some(first) = rows.first() {
-        header.extend(
-            first
-                .accuracy
-                .iter()
-                .map(|(m, d, _)| format!("≤ {m} m, {d}°")),
-        );
+impl Row {
+    fn errors(&self) -> ErrorColumns<'_> {
+        ErrorColumns {
+            median_pos_m: self.median_pos_m,
+            median_rot_deg: self.median_rot_deg,
+            mean_pos_m: self.mean_pos_m,
+            accuracy: &self.accuracy,
+        }
     }
+}
+
+fn table(rows: &[Row]) -> Table {
+    let accuracy = rows.first().map_or(&[][..], |r| &r.accuracy);
+    let mut header = ErrorColumns::headers(&["trained on"], accuracy);
     header.push("own renders, val median (m)".into());
     let mut t = Table::new(
         "Trained on a render mode, tested on photo-like frames",
         header,
     );
     for r in rows {
-        let mut cells = vec![
-            r.mode.clone(),
-            format!("{:.3}", r.median_pos_m),
-            format!("{:.2}", r.median_rot_deg),
-            format!("{:.3}", r.mean_pos_m),
-        ];
-        cells.extend(
-            r.accuracy
-                .iter()
-                .map(|(_, _, f)| format!("{:.1} %", 100.0 * f)),
-        );
+        let mut cells = r.errors().cells(vec![r.mode.clone()]);
         cells.push(format!("{:.3}", r.val_median_pos_m));
         t.push_row(cells);
     }

@@ -15,6 +15,7 @@
 //! its own normal-condition median. With `--quick` each model trains on 6000 frames for 8
 //! epochs, so that the three trainings and the tests stay within 15 minutes on two cores.
 
+use super::ErrorColumns;
 use crate::cmd::demo::{self, Evaluation, FrameResult};
 use crate::output::{print_json, print_text};
 use anyhow::{Result, ensure};
@@ -242,40 +243,27 @@ fn localize_variants(
         .collect()
 }
 
-fn table(rows: &[Row]) -> Table {
-    let mut header = vec![
-        "variant".to_string(),
-        "model".into(),
-        "median (m)".into(),
-        "median (°)".into(),
-        "mean (m)".into(),
-    ];
-    if let Some(first) = rows.first() {
-        header.extend(
-            first
-                .accuracy
-                .iter()
-                .map(|(m, d, _)| format!("≤ {m} m, {d}°")),
-        );
+impl Row {
+    fn errors(&self) -> ErrorColumns<'_> {
+        ErrorColumns {
+            median_pos_m: self.median_pos_m,
+            median_rot_deg: self.median_rot_deg,
+            mean_pos_m: self.mean_pos_m,
+            accuracy: &self.accuracy,
+        }
     }
+}
+
+fn table(rows: &[Row]) -> Table {
+    let accuracy = rows.first().map_or(&[][..], |r| &r.accuracy);
+    let mut header = ErrorColumns::headers(&["variant", "model"], accuracy);
     header.push("× normal".into());
     let mut t = Table::new(
         "Trained under normal conditions, tested under each variant",
         header,
     );
     for r in rows {
-        let mut cells = vec![
-            r.variant.clone(),
-            r.model.clone(),
-            format!("{:.3}", r.median_pos_m),
-            format!("{:.2}", r.median_rot_deg),
-            format!("{:.3}", r.mean_pos_m),
-        ];
-        cells.extend(
-            r.accuracy
-                .iter()
-                .map(|(_, _, f)| format!("{:.1} %", 100.0 * f)),
-        );
+        let mut cells = r.errors().cells(vec![r.variant.clone(), r.model.clone()]);
         cells.push(format!("{:.2}", r.growth));
         t.push_row(cells);
     }
