@@ -9,9 +9,10 @@ mod robustness;
 mod sequence;
 mod track;
 
-use crate::cmd::demo::DemoArgs;
+use crate::cmd::demo::{DemoArgs, Evaluation};
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
+use serde::Serialize;
 use std::path::Path;
 
 /// Arguments of `indoorloc study`.
@@ -63,20 +64,42 @@ pub fn run(args: &StudyArgs) -> Result<()> {
 
 /// The error columns the studies' tables share, after their own leading columns: median
 /// position and rotation error, mean position error, and the share of frames within each
-/// accuracy threshold `(max m, max °, share)`.
-pub(crate) struct ErrorColumns<'a> {
+/// accuracy threshold. Flattened into a row's JSON, so the keys are the row's own.
+#[derive(Debug, Serialize)]
+pub(crate) struct ErrorColumns {
     pub median_pos_m: f64,
     pub median_rot_deg: f64,
     pub mean_pos_m: f64,
-    pub accuracy: &'a [(f64, f64, f64)],
+    /// `(max m, max °, share)` per threshold: (0.25 m, 2°), (0.5 m, 5°) and (5 m, 10°).
+    pub accuracy: Vec<(f64, f64, f64)>,
 }
 
-impl ErrorColumns<'_> {
-    /// `lead` then the headers of these columns (the thresholds of `accuracy`).
-    pub(crate) fn headers(lead: &[&str], accuracy: &[(f64, f64, f64)]) -> Vec<String> {
+impl ErrorColumns {
+    /// The columns of an evaluation.
+    pub(crate) fn of(ev: &Evaluation) -> ErrorColumns {
+        ErrorColumns {
+            median_pos_m: ev.pos_median,
+            median_rot_deg: ev.rot_median,
+            mean_pos_m: ev.pos_mean,
+            accuracy: ev.accuracy.clone(),
+        }
+    }
+
+    /// `lead` then the headers of these columns (the thresholds of the first row's accuracy).
+    pub(crate) fn headers<'a>(
+        lead: &[&str],
+        first: impl IntoIterator<Item = &'a ErrorColumns>,
+    ) -> Vec<String> {
         let mut header: Vec<String> = lead.iter().map(|s| s.to_string()).collect();
         header.extend(["median (m)".into(), "median (°)".into(), "mean (m)".into()]);
-        header.extend(accuracy.iter().map(|(m, d, _)| format!("≤ {m} m, {d}°")));
+        if let Some(first) = first.into_iter().next() {
+            header.extend(
+                first
+                    .accuracy
+                    .iter()
+                    .map(|(m, d, _)| format!("≤ {m} m, {d}°")),
+            );
+        }
         header
     }
 

@@ -62,11 +62,8 @@ pub struct RenderTypesArgs {
 struct Row {
     /// The render mode trained on.
     mode: String,
-    median_pos_m: f64,
-    median_rot_deg: f64,
-    mean_pos_m: f64,
-    /// Fraction of frames within (0.25 m, 2°), (0.5 m, 5°) and (5 m, 10°).
-    accuracy: Vec<(f64, f64, f64)>,
+    #[serde(flatten)]
+    errors: ErrorColumns,
     /// Median validation error on the mode's own renders, metres.
     val_median_pos_m: f64,
 }
@@ -161,35 +158,20 @@ fn row(mode: &str, results: &[FrameResult], task: Task, prepared: &demo::Prepare
     let ev = Evaluation::of(results, task)?;
     Ok(Row {
         mode: mode.to_string(),
-        median_pos_m: ev.pos_median,
-        median_rot_deg: ev.rot_median,
-        mean_pos_m: ev.pos_mean,
-        accuracy: ev.accuracy,
+        errors: ErrorColumns::of(&ev),
         val_median_pos_m: prepared.val_median_pos_m(),
     })
 }
 
-impl Row {
-    fn errors(&self) -> ErrorColumns<'_> {
-        ErrorColumns {
-            median_pos_m: self.median_pos_m,
-            median_rot_deg: self.median_rot_deg,
-            mean_pos_m: self.mean_pos_m,
-            accuracy: &self.accuracy,
-        }
-    }
-}
-
 fn table(rows: &[Row]) -> Table {
-    let accuracy = rows.first().map_or(&[][..], |r| &r.accuracy);
-    let mut header = ErrorColumns::headers(&["trained on"], accuracy);
+    let mut header = ErrorColumns::headers(&["trained on"], rows.iter().map(|r| &r.errors));
     header.push("own renders, val median (m)".into());
     let mut t = Table::new(
         "Trained on a render mode, tested on photo-like frames",
         header,
     );
     for r in rows {
-        let mut cells = r.errors().cells(vec![r.mode.clone()]);
+        let mut cells = r.errors.cells(vec![r.mode.clone()]);
         cells.push(format!("{:.3}", r.val_median_pos_m));
         t.push_row(cells);
     }

@@ -78,11 +78,8 @@ struct Row {
     variant: String,
     /// `baseline`, `shape` or `shape+planes`.
     model: String,
-    median_pos_m: f64,
-    median_rot_deg: f64,
-    mean_pos_m: f64,
-    /// Fraction of frames within (0.25 m, 2°), (0.5 m, 5°) and (5 m, 10°).
-    accuracy: Vec<(f64, f64, f64)>,
+    #[serde(flatten)]
+    errors: ErrorColumns,
     /// Median position error over the same model's under normal conditions.
     growth: f64,
 }
@@ -162,10 +159,7 @@ pub fn run(args: &RobustnessArgs) -> Result<()> {
             rows.push(Row {
                 variant: v.name().to_string(),
                 model: name.to_string(),
-                median_pos_m: ev.pos_median,
-                median_rot_deg: ev.rot_median,
-                mean_pos_m: ev.pos_mean,
-                accuracy: ev.accuracy.clone(),
+                errors: ErrorColumns::of(ev),
                 growth: ev.pos_median / normal,
             });
         }
@@ -243,27 +237,15 @@ fn localize_variants(
         .collect()
 }
 
-impl Row {
-    fn errors(&self) -> ErrorColumns<'_> {
-        ErrorColumns {
-            median_pos_m: self.median_pos_m,
-            median_rot_deg: self.median_rot_deg,
-            mean_pos_m: self.mean_pos_m,
-            accuracy: &self.accuracy,
-        }
-    }
-}
-
 fn table(rows: &[Row]) -> Table {
-    let accuracy = rows.first().map_or(&[][..], |r| &r.accuracy);
-    let mut header = ErrorColumns::headers(&["variant", "model"], accuracy);
+    let mut header = ErrorColumns::headers(&["variant", "model"], rows.iter().map(|r| &r.errors));
     header.push("× normal".into());
     let mut t = Table::new(
         "Trained under normal conditions, tested under each variant",
         header,
     );
     for r in rows {
-        let mut cells = r.errors().cells(vec![r.variant.clone(), r.model.clone()]);
+        let mut cells = r.errors.cells(vec![r.variant.clone(), r.model.clone()]);
         cells.push(format!("{:.2}", r.growth));
         t.push_row(cells);
     }
