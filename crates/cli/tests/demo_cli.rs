@@ -1,7 +1,7 @@
 //! `indoorloc demo` end to end at a toy size: it renders, trains, localizes the held-out walk
 //! and writes the report; a second run reuses the frames and the finished checkpoint.
 
-use crate::util::{TestResult, indoorloc, json_of};
+use crate::util::{TOY, TestResult, indoorloc, json_of};
 
 #[test]
 fn demo_runs_end_to_end_and_resumes() -> TestResult {
@@ -9,17 +9,9 @@ fn demo_runs_end_to_end_and_resumes() -> TestResult {
     let out = dir.path().join("demo");
     let out_s = out.to_str().ok_or("path")?;
     let run = || -> TestResult<serde_json::Value> {
-        json_of(&indoorloc(&[
-            "demo",
-            "--quick",
-            "--out",
-            out_s,
-            "--train-frames",
-            "48",
-            "--test-frames",
-            "24",
-            "--epochs",
-            "1",
+        let mut args = vec!["demo", "--out", out_s];
+        args.extend(TOY);
+        args.extend([
             "--view",
             "gray,resize=40x30,norm=pm1",
             "--mc",
@@ -27,7 +19,8 @@ fn demo_runs_end_to_end_and_resumes() -> TestResult {
             "--cut-segments",
             "2",
             "--json",
-        ])?)
+        ]);
+        json_of(&indoorloc(&args)?)
     };
     let first = run()?;
     assert_eq!(first["frames"], serde_json::json!([48, 12, 24]));
