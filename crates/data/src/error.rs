@@ -52,6 +52,14 @@ impl DataError {
         }
     }
 
+    /// A frame source at `path` that cannot be read as frames.
+    pub fn frames(path: impl Into<PathBuf>, msg: impl Into<String>) -> Self {
+        Self::Frames {
+            path: path.into(),
+            msg: msg.into(),
+        }
+    }
+
     /// A malformed line `line` (1-based) of `path`.
     pub fn parse(path: impl Into<PathBuf>, line: usize, msg: impl Into<String>) -> Self {
         Self::Parse {

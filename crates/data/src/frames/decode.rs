@@ -15,10 +15,7 @@ use std::path::Path;
 /// reads). Errors name the file: unreadable, not an image, corrupt, or a truncated JPEG.
 pub fn decode_image(path: &Path) -> Result<image::DynamicImage> {
     let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
-    let err = |msg: String| DataError::Frames {
-        path: path.to_path_buf(),
-        msg,
-    };
+    let err = |msg: String| DataError::frames(path, msg);
     let format = image::guess_format(&bytes)
         .map_err(|_| err("not an image (unknown file signature)".into()))?;
     if format == image::ImageFormat::Jpeg && !jpeg_is_complete(&bytes) {

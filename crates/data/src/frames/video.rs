@@ -138,10 +138,7 @@ impl VideoFile {
         fast: bool,
         decode_threads: usize,
     ) -> Result<Self> {
-        let err = |msg: String| DataError::Frames {
-            path: path.to_path_buf(),
-            msg,
-        };
+        let err = |msg: String| DataError::frames(path, msg);
         if let Some((w, h)) = size {
             if w == 0 || h == 0 || w > 16384 || h > 16384 {
                 return Err(err(format!("cannot scale video frames to {w}x{h}")));
@@ -174,10 +171,7 @@ impl VideoFile {
     /// No such device, a device FFmpeg cannot open, or an FFmpeg built without `v4l2`; the
     /// message names the device.
     pub fn open_device(path: &Path) -> Result<Self> {
-        let err = |msg: String| DataError::Frames {
-            path: path.to_path_buf(),
-            msg,
-        };
+        let err = |msg: String| DataError::frames(path, msg);
         std::fs::metadata(path).map_err(|e| DataError::io(path, e))?;
         init().map_err(err)?;
         ff::device::register_all();
@@ -204,10 +198,7 @@ impl VideoFile {
         fast: bool,
         decode_threads: usize,
     ) -> Result<Self> {
-        let err = |msg: String| DataError::Frames {
-            path: path.to_path_buf(),
-            msg,
-        };
+        let err = |msg: String| DataError::frames(path, msg);
         let stream = input
             .streams()
             .best(ff::media::Type::Video)
