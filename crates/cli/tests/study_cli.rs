@@ -190,6 +190,14 @@ fn study_place_split_reports_both_splits_and_confusion_matrices() -> TestResult 
         .collect();
     assert_eq!(modes, ["global", "routed", "oracle"]);
     assert!(out.join("data-B0").join("poses.csv").is_file());
+    // training walks under four appearances, each walk its own session; none under the
+    // held-out appearance
+    let seqs = data::native::NativeDataset::open(&out.join("data"))?.sequences();
+    for look in ["normal-", "dim-", "daylight-", "furniture-moved-"] {
+        assert!(seqs.iter().any(|s| s.starts_with(look)), "{look}: {seqs:?}");
+    }
+    assert!(!seqs.iter().any(|s| s.starts_with("some-lights-off")));
+    assert_eq!(seqs.len(), 24, "240 frames in walks of 10");
     let rows = o["rows"].as_array().ok_or("rows")?;
     let splits: Vec<&str> = rows.iter().filter_map(|r| r["split"].as_str()).collect();
     assert_eq!(splits, ["random", "session"]);

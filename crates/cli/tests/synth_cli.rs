@@ -72,6 +72,40 @@ fn same_seed_gives_byte_identical_files() -> TestResult {
 }
 
 #[test]
+fn fps_spaces_the_frames_and_world_seed_keeps_the_building() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let (slow, other) = (dir.path().join("slow"), dir.path().join("other"));
+    synth(&slow, &["--fps", "2.5", "--seed", "3", "--world-seed", "1"])?;
+    let ds = data::native::NativeDataset::open(&slow)?;
+    assert_eq!(ds.info.frame_rate, 2.5);
+    let t: Vec<f64> = ds.trajectory.frames[..2]
+        .iter()
+        .map(|f| f.t.unwrap_or(f64::NAN))
+        .collect();
+    assert!((t[1] - t[0] - 0.4).abs() < 1e-9, "{t:?}");
+    // other walks through the same building: seed 1's layout, seed 3's walks
+    synth(&other, &["--seed", "1"])?;
+    let names = |root: &Path| -> TestResult<String> {
+        Ok(data::native::NativeDataset::open(root)?.info.name)
+    };
+    assert_eq!(names(&slow)?, names(&other)?);
+    assert!(names(&slow)?.contains("seed 1"), "{}", names(&slow)?);
+    let poses = |root: &Path| std::fs::read(root.join("poses.csv"));
+    assert_ne!(poses(&slow)?, poses(&other)?);
+    let bad = indoorloc(&[
+        "synth",
+        "--out",
+        dir.path().join("bad").to_str().ok_or("path")?,
+        "--fps",
+        "0",
+    ])?;
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(2), "{err}");
+    assert!(err.contains("fps"), "{err}");
+    Ok(())
+}
+
+#[test]
 fn bad_model_file_exits_2_naming_it() -> TestResult {
     let dir = tempfile::tempdir()?;
     let model = dir.path().join("broken.obj");

@@ -30,6 +30,7 @@
 
 pub mod cambridge;
 pub mod colmap;
+pub mod concat;
 mod csv_table;
 pub mod cuts;
 mod error;

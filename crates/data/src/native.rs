@@ -798,28 +798,7 @@ mod tests {
     use crate::test_util::{geo, put, tmp};
 
     fn info() -> DatasetInfo {
-        DatasetInfo {
-            name: "test".into(),
-            dof: 6,
-            units: "m".into(),
-            frame_rate: 29.97,
-            mount: Mount::Forward,
-            camera: CameraInfo {
-                width: 640,
-                height: 480,
-                fx: 500.0,
-                fy: 501.5,
-                cx: 319.5,
-                cy: 239.5,
-                distortion: [0.1, -0.01, 0.001, -0.002, 0.0003],
-            },
-            generator: Some(Generator {
-                name: "indoorloc synth".into(),
-                seed: Some(7),
-                source: None,
-                settings: BTreeMap::from([("world".to_string(), "default".to_string())]),
-            }),
-        }
+        crate::test_util::dataset_info()
     }
 
     fn trajectory() -> Result<Trajectory> {

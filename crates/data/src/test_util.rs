@@ -1,7 +1,10 @@
 //! Helpers shared by the unit tests of this crate: temporary folders, small text files, geometry
 //! errors as data errors, and paths into the repository's shared test data.
 
+use crate::native::{CameraInfo, DatasetInfo, Generator};
 use crate::{DataError, Result};
+use geom::Mount;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The repository's `shared` folder, seen from this crate.
@@ -36,4 +39,30 @@ pub(crate) fn shared(rel: &str) -> PathBuf {
 /// `rel` inside the repository's shared test data, `shared/data`, e.g. `fox_posed/images`.
 pub(crate) fn shared_data(rel: &str) -> PathBuf {
     shared("data").join(rel)
+}
+
+/// A 640x480 forward-camera `dataset.toml` of a 6-DoF dataset in metres.
+pub(crate) fn dataset_info() -> DatasetInfo {
+    DatasetInfo {
+        name: "test".into(),
+        dof: 6,
+        units: "m".into(),
+        frame_rate: 29.97,
+        mount: Mount::Forward,
+        camera: CameraInfo {
+            width: 640,
+            height: 480,
+            fx: 500.0,
+            fy: 501.5,
+            cx: 319.5,
+            cy: 239.5,
+            distortion: [0.1, -0.01, 0.001, -0.002, 0.0003],
+        },
+        generator: Some(Generator {
+            name: "indoorloc synth".into(),
+            seed: Some(7),
+            source: None,
+            settings: BTreeMap::from([("world".to_string(), "default".to_string())]),
+        }),
+    }
 }

@@ -79,6 +79,9 @@ pub struct SynthConfig {
     pub frames: usize,
     /// Number of sequences the frames are split into (splits are made of sequences).
     pub sequences: usize,
+    /// Frame rate of walks, frames per second; `None`: the rig's own (10 for a person, 5 for
+    /// a robot). A lower rate spreads the same number of frames over more ground.
+    pub fps: Option<f64>,
     /// Image width, pixels.
     pub width: u32,
     /// Image height, pixels.
@@ -87,8 +90,10 @@ pub struct SynthConfig {
     pub mode: RenderMode,
     /// Appearance variant.
     pub variant: Variant,
-    /// Seed of trajectories, variants and sensor noise.
+    /// Seed of trajectories, variants, the camera's intrinsics and sensor noise.
     pub seed: u64,
+    /// Seed of the trajectories alone (default: `seed`): other walks seen by the same camera.
+    pub walk_seed: Option<u64>,
     /// Write `depth/` (16-bit millimetres).
     pub depth: bool,
     /// Write `planes/` (8-bit dominant-plane ids).
@@ -105,11 +110,13 @@ impl Default for SynthConfig {
             sampler: Sampler::Walk,
             frames: 600,
             sequences: 6,
+            fps: None,
             width: 320,
             height: 240,
             mode: RenderMode::Textured,
             variant: Variant::Normal,
             seed: 1,
+            walk_seed: None,
             depth: true,
             planes: true,
             resume: false,
@@ -264,13 +271,20 @@ fn people_left_out(crowd: &Crowd, world: &World, shots: &[Shot], cuts: &[u64]) -
 
 /// Draws the poses of every sequence: `(shots, gold cuts as frame indices, frame rate)`.
 fn plan_shots(world: &World, cfg: &SynthConfig, rig: &Rig) -> Result<(Vec<Shot>, Vec<u64>, f64)> {
-    let walk_cfg = WalkConfig::for_rig(rig.clone());
+    let mut walk_cfg = WalkConfig::for_rig(rig.clone());
+    if let Some(fps) = cfg.fps {
+        walk_cfg.fps = fps;
+    }
     let mut shots = Vec::with_capacity(cfg.frames);
     let mut cuts = Vec::new();
     for seq in 0..cfg.sequences {
         // Frames spread evenly over sequences; the first ones take the remainder.
         let n = cfg.frames / cfg.sequences + usize::from(seq < cfg.frames % cfg.sequences);
-        let seed = cfg.seed.wrapping_mul(7919).wrapping_add(seq as u64);
+        let seed = cfg
+            .walk_seed
+            .unwrap_or(cfg.seed)
+            .wrapping_mul(7919)
+            .wrapping_add(seq as u64);
         let frames = match cfg.sampler {
             Sampler::Walk => trajectory::walk(world, &walk_cfg, n, seed)?,
             Sampler::Random => trajectory::random_poses(world, rig, n, seed)?,

@@ -39,6 +39,10 @@ pub struct SynthArgs {
     /// Sequences the frames are split into (splits are made of whole sequences).
     #[arg(long, default_value_t = 6)]
     sequences: usize,
+    /// Frames per second of walks (default: the rig's, 10 for a person, 5 for a robot); a lower
+    /// rate spreads the frames over more ground.
+    #[arg(long)]
+    fps: Option<f64>,
     /// Image size, WIDTHxHEIGHT.
     #[arg(long, default_value = "320x240", value_parser = crate::cmd::parse::size)]
     size: (u32, u32),
@@ -52,6 +56,10 @@ pub struct SynthArgs {
     /// Seed of the building layout, trajectories, variants and sensor noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Seed of the built-in building's layout alone (default: --seed): other walks through the
+    /// same building.
+    #[arg(long)]
+    world_seed: Option<u64>,
     /// Skip depth images.
     #[arg(long)]
     no_depth: bool,
@@ -174,7 +182,9 @@ pub fn run(args: &SynthArgs) -> Result<()> {
 
 fn config(args: &SynthArgs) -> Result<SynthConfig> {
     let world = if args.world == "default" {
-        WorldSource::Default { seed: args.seed }
+        WorldSource::Default {
+            seed: args.world_seed.unwrap_or(args.seed),
+        }
     } else {
         WorldSource::File {
             path: PathBuf::from(&args.world),
@@ -201,11 +211,13 @@ fn config(args: &SynthArgs) -> Result<SynthConfig> {
         },
         frames: args.frames,
         sequences: args.sequences,
+        fps: args.fps,
         width: args.size.0,
         height: args.size.1,
         mode: args.mode,
         variant: args.variant,
         seed: args.seed,
+        walk_seed: None,
         depth: !args.no_depth,
         planes: !args.no_planes,
         resume: args.resume,

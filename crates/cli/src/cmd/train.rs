@@ -224,8 +224,8 @@ struct SeqOutput {
 /// The place classifier's configuration these arguments describe.
 pub fn place_config(args: &TrainArgs) -> Result<PlaceConfig> {
     anyhow::ensure!(
-        !(args.shape_bias || args.planes),
-        "--shape-bias and --planes train pose networks; a place classifier takes --augment"
+        !args.planes,
+        "--planes trains a pose network's plane branch; a place classifier takes --augment and --shape-bias"
     );
     let mut cfg = PlaceConfig::new(&args.data, &args.out);
     cfg.arch = args.arch;
@@ -237,6 +237,7 @@ pub fn place_config(args: &TrainArgs) -> Result<PlaceConfig> {
     cfg.dropout = args.dropout;
     cfg.split = args.place_split.parse()?;
     cfg.augment = args.augment;
+    cfg.shape_bias = args.shape_bias;
     cfg.patience = Some(args.patience);
     cfg.seed = args.seed;
     cfg.resume = args.resume;

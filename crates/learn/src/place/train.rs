@@ -85,6 +85,10 @@ pub struct PlaceConfig {
     pub split: PlaceSplit,
     /// Jitter the training views ([`crate::loader::jitter_view`]).
     pub augment: bool,
+    /// Restyle half the training views ([`crate::loader::style_view`]): the place is told by
+    /// layout and fittings, not by how the lamps light the paint today.
+    #[serde(default)]
+    pub shape_bias: bool,
     /// Stop after this many epochs without a better mean validation accuracy.
     pub patience: Option<usize>,
     /// Seed of initialisation, order, jitter and dropout.
@@ -109,6 +113,7 @@ impl PlaceConfig {
             dropout: 0.2,
             split: PlaceSplit::Session,
             augment: false,
+            shape_bias: false,
             patience: Some(5),
             seed: 0,
             resume: false,
@@ -386,10 +391,10 @@ pub fn train_place(
         rng.set_stream(epoch as u64);
         let mut order: Vec<usize> = (0..train.len()).collect();
         order.shuffle(&mut rng);
-        let augment = cfg.augment.then(|| loader::Augment {
+        let augment = (cfg.augment || cfg.shape_bias).then(|| loader::Augment {
             rng: loader::jitter_rng(cfg.seed, epoch),
-            jitter: true,
-            style: false,
+            jitter: cfg.augment,
+            style: cfg.shape_bias,
         });
         let mut loss_sum = 0.0;
         std::thread::scope(|scope| -> Result<()> {
