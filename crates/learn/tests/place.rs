@@ -135,3 +135,32 @@ fn a_random_split_mixes_sequences_and_unlabelled_data_is_refused() {
         })
     ));
 }
+
+#[test]
+fn a_model_from_before_the_pooling_grid_reads_as_global_pooling() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (data, out) = (tmp.path().join("data"), tmp.path().join("model"));
+    common::make_dataset(&data, 6, 10);
+    add_labels(&data);
+    let mut bad = config(&data, &out, 1);
+    bad.grid = 5;
+    let err = train_place(&bad, &mut |_| {}).unwrap_err();
+    assert!(err.to_string().contains("grid 5"), "{err}");
+    let mut global = config(&data, &out, 1);
+    global.grid = 1;
+    train_place(&global, &mut |_| {}).unwrap();
+    let img = image::open(NativeDataset::open(&data).unwrap().frame_path(0)).unwrap();
+    let before = PlaceLocalizer::load(&out).unwrap().predict(&img).unwrap();
+    // an older place.toml has no `grid` keys
+    let toml = out.join(learn::place::PLACE_TOML);
+    let text = std::fs::read_to_string(&toml).unwrap();
+    let old: String = text
+        .lines()
+        .filter(|l| !l.starts_with("grid ="))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert!(old.len() < text.len());
+    std::fs::write(&toml, old).unwrap();
+    let after = PlaceLocalizer::load(&out).unwrap().predict(&img).unwrap();
+    assert_eq!(before, after);
+}

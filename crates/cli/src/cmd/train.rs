@@ -52,6 +52,11 @@ pub struct TrainArgs {
     /// from all frames (leaky: near-twins of validation frames are in training).
     #[arg(long, default_value = "session", value_parser = ["session", "random"])]
     place_split: String,
+    /// For --task place: average the last feature map to a GRID x GRID grid before the heads
+    /// (1: global average pooling; 2 keeps the view's layout, which tells a corridor's two
+    /// directions apart more often).
+    #[arg(long, default_value_t = 2, value_name = "GRID")]
+    place_grid: usize,
     /// Backbone: small (fast), resnet18, resnet34 or googlenet (GoogLeNet + BatchNorm up to its
     /// first auxiliary classifier, as ceiling-camera work uses).
     #[arg(long, default_value = "small")]
@@ -238,6 +243,7 @@ pub fn place_config(args: &TrainArgs) -> Result<PlaceConfig> {
     cfg.split = args.place_split.parse()?;
     cfg.augment = args.augment;
     cfg.shape_bias = args.shape_bias;
+    cfg.grid = args.place_grid;
     cfg.patience = Some(args.patience);
     cfg.seed = args.seed;
     cfg.resume = args.resume;

@@ -4,8 +4,8 @@
 //!
 //! The corridor class is the whole place, `building/floor/corridor/direction` (corridor names
 //! repeat between floors and buildings), so a right corridor answer implies a right building
-//! and floor. Each head is a linear layer on the pooled features (with dropout in training),
-//! trained by the sum of the three cross-entropies.
+//! and floor. Each head is a linear layer on the features pooled to a small grid (with
+//! dropout in training), trained by the sum of the three cross-entropies.
 //!
 //! # Files (beside a pose model's, or alone)
 //! ```text
@@ -116,6 +116,17 @@ pub struct PlaceNetConfig {
     pub channels: usize,
     /// Classes per level (building, floor, corridor).
     pub classes: [usize; 3],
+    /// Side of the grid the last feature map is averaged to before the heads: 1 is global
+    /// average pooling; 2 keeps which quarter of the view a feature is in, which helps to tell
+    /// which way along a corridor the camera faces (the two views share their features, not
+    /// their layout): on the place-split study's held-out walks, 69.5 % corridor and direction
+    /// right against 66.2 % with global pooling. Models from before the grid read as 1.
+    #[serde(default = "global_pool")]
+    pub grid: usize,
+}
+
+fn global_pool() -> usize {
+    1
 }
 
 impl PlaceNetConfig {
@@ -130,11 +141,17 @@ impl PlaceNetConfig {
         if self.classes.contains(&0) {
             return Err(LearnError::Config("a level without classes".into()));
         }
-        let features = self.arch.features();
+        if !(1..=4).contains(&self.grid) {
+            return Err(LearnError::Config(format!(
+                "pooling grid {} must be 1 to 4",
+                self.grid
+            )));
+        }
+        let features = self.arch.features() * self.grid * self.grid;
         let head = |n: usize| LinearConfig::new(features, n).init(device);
         Ok(seeded_init(device, seed, || PlaceNet {
             backbone: Backbone::new(self.arch, self.channels, device),
-            pool: AdaptiveAvgPool2dConfig::new([1, 1]).init(),
+            pool: AdaptiveAvgPool2dConfig::new([self.grid, self.grid]).init(),
             building: head(self.classes[0]),
             floor: head(self.classes[1]),
             corridor: head(self.classes[2]),
@@ -142,7 +159,7 @@ impl PlaceNetConfig {
     }
 }
 
-/// Backbone, global average pool, one linear head per level.
+/// Backbone, average pool to a small grid (1x1: global), one linear head per level.
 #[derive(Module, Debug)]
 pub struct PlaceNet {
     backbone: Backbone,
@@ -153,7 +170,7 @@ pub struct PlaceNet {
 }
 
 impl PlaceNet {
-    /// Pooled features `[B, F]` of a batch `[B, C, H, W]`.
+    /// Pooled features `[B, F · grid²]` of a batch `[B, C, H, W]`.
     pub fn features(&self, x: Tensor<4>) -> Tensor<2> {
         self.pool.forward(self.backbone.forward(x)).flatten(1, 3)
     }

@@ -81,6 +81,9 @@ pub struct PlaceConfig {
     pub weight_decay: f64,
     /// Dropout on the pooled features.
     pub dropout: f64,
+    /// Side of the pooling grid ([`PlaceNetConfig::grid`]).
+    #[serde(default = "super::global_pool")]
+    pub grid: usize,
     /// Session or random split.
     pub split: PlaceSplit,
     /// Jitter the training views ([`crate::loader::jitter_view`]).
@@ -98,8 +101,8 @@ pub struct PlaceConfig {
 }
 
 impl PlaceConfig {
-    /// Defaults: small network, `place240`, 10 epochs of 32 images, AdamW at 1e-3 with weight
-    /// decay 1e-4, dropout 0.2, session split, patience 5, seed 0.
+    /// Defaults: small network, `place240`, a 2x2 pooling grid, 10 epochs of 32 images, AdamW
+    /// at 1e-3 with weight decay 1e-4, dropout 0.2, session split, patience 5, seed 0.
     pub fn new(data: impl Into<PathBuf>, out: impl Into<PathBuf>) -> PlaceConfig {
         PlaceConfig {
             data: data.into(),
@@ -111,6 +114,7 @@ impl PlaceConfig {
             lr: 1e-3,
             weight_decay: 1e-4,
             dropout: 0.2,
+            grid: 2,
             split: PlaceSplit::Session,
             augment: false,
             shape_bias: false,
@@ -330,6 +334,7 @@ pub fn train_place(
         arch: cfg.arch,
         channels: train.channels,
         classes: classes.sizes(),
+        grid: cfg.grid,
     };
     let Start {
         mut meta,
