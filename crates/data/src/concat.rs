@@ -8,7 +8,7 @@
 //! `planes/` where every part has them) are hard-linked where the file system allows, else
 //! copied; the metadata is written last and atomically, so a dataset that opens is complete.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use crate::native::{self, DatasetInfo, Label, NativeDataset, Splits};
@@ -35,9 +35,9 @@ pub fn concat(out: &Path, name: &str, parts: &[Part]) -> Result<NativeDataset> {
     let first = opened
         .first()
         .ok_or_else(|| DataError::invalid(out, "no datasets to join"))?;
-    let mut prefixes = HashMap::new();
+    let mut prefixes = HashSet::new();
     for (part, ds) in parts.iter().zip(&opened) {
-        if part.prefix.is_empty() || prefixes.insert(&part.prefix, ()).is_some() {
+        if part.prefix.is_empty() || !prefixes.insert(&part.prefix) {
             return Err(DataError::invalid(
                 &part.root,
                 format!("prefix '{}' is empty or used twice", part.prefix),
@@ -57,12 +57,22 @@ pub fn concat(out: &Path, name: &str, parts: &[Part]) -> Result<NativeDataset> {
         }
     }
     let with_labels = opened.iter().all(|ds| ds.labels.is_some());
+    let numbers = opened
+        .iter()
+        .map(|ds| {
+            (0..ds.trajectory.len())
+                .map(|i| frame_number(ds, i))
+                .collect::<Result<Vec<u64>>>()
+        })
+        .collect::<Result<Vec<_>>>()?;
     let images: Vec<&str> = ["frames", "depth", "planes"]
         .into_iter()
         .filter(|sub| {
-            opened
-                .iter()
-                .all(|ds| (0..ds.trajectory.len()).all(|i| image_of(ds, sub, i).is_file()))
+            opened.iter().zip(&numbers).all(|(ds, frames)| {
+                frames
+                    .iter()
+                    .all(|&f| native::image_path(&ds.root, sub, f).is_file())
+            })
         })
         .collect();
     if !images.contains(&"frames") {
@@ -80,18 +90,18 @@ pub fn concat(out: &Path, name: &str, parts: &[Part]) -> Result<NativeDataset> {
     let mut labels = Vec::new();
     let mut cuts = Vec::new();
     let mut splits = Splits::default();
-    for (part, ds) in parts.iter().zip(&opened) {
+    for ((part, ds), numbers) in parts.iter().zip(&opened).zip(&numbers) {
         let by_frame: HashMap<u64, &Label> =
             ds.labels.iter().flatten().map(|l| (l.frame, l)).collect();
         let base = frames.len() as u64;
-        for (i, f) in ds.trajectory.frames.iter().enumerate() {
-            let old = frame_number(ds, i)?;
+        let mut index = HashMap::new();
+        for (f, &old) in ds.trajectory.frames.iter().zip(numbers) {
             let new = frames.len() as u64;
+            index.insert(old, new);
             for sub in &images {
                 link_or_copy(
-                    &image_of(ds, sub, i),
-                    &out.join(sub)
-                        .join(format!("{}.png", native::frame_name(new))),
+                    &native::image_path(&ds.root, sub, old),
+                    &native::image_path(out, sub, new),
                 )?;
             }
             if let Some(label) = by_frame.get(&old) {
@@ -110,9 +120,6 @@ pub fn concat(out: &Path, name: &str, parts: &[Part]) -> Result<NativeDataset> {
         if base > 0 {
             cuts.push(base);
         }
-        let index: HashMap<u64, u64> = (0..ds.trajectory.len())
-            .map(|i| Ok((frame_number(ds, i)?, base + i as u64)))
-            .collect::<Result<_>>()?;
         cuts.extend(ds.cuts.iter().flatten().filter_map(|c| index.get(c)));
         let named = |list: &[String]| -> Vec<String> {
             list.iter()
@@ -147,13 +154,6 @@ fn frame_number(ds: &NativeDataset, index: usize) -> Result<u64> {
             format!("frame {index} has no frame number"),
         )
     })
-}
-
-fn image_of(ds: &NativeDataset, sub: &str, index: usize) -> PathBuf {
-    let frame = ds.frame_number(index).unwrap_or(index as u64);
-    ds.root
-        .join(sub)
-        .join(format!("{}.png", native::frame_name(frame)))
 }
 
 /// Hard-links `from` to `to` (replacing `to`), or copies it where links are not possible.

@@ -339,23 +339,17 @@ impl NativeDataset {
 
     /// Image path of a frame: `frames/NNNNNN.png`.
     pub fn frame_path(&self, frame: u64) -> PathBuf {
-        self.root
-            .join("frames")
-            .join(format!("{}.png", frame_name(frame)))
+        image_path(&self.root, "frames", frame)
     }
 
     /// Depth image path of a frame: `depth/NNNNNN.png` (may not exist).
     pub fn depth_path(&self, frame: u64) -> PathBuf {
-        self.root
-            .join("depth")
-            .join(format!("{}.png", frame_name(frame)))
+        image_path(&self.root, "depth", frame)
     }
 
     /// Plane-id image path of a frame: `planes/NNNNNN.png` (may not exist).
     pub fn plane_path(&self, frame: u64) -> PathBuf {
-        self.root
-            .join("planes")
-            .join(format!("{}.png", frame_name(frame)))
+        image_path(&self.root, "planes", frame)
     }
 
     /// Frame number of the frame at `index` of the trajectory.
@@ -472,6 +466,12 @@ pub fn write_metadata(
     splits.write(&root.join(SPLITS_TOML))?;
     write_or_remove(&root.join(LABELS_CSV), labels.as_deref())?;
     write_or_remove(&root.join(CUTS_CSV), cuts.as_deref())
+}
+
+/// Path of a frame's image in one of a native dataset's image folders (`frames`, `depth`,
+/// `planes`): `root/<folder>/NNNNNN.png`.
+pub fn image_path(root: &Path, folder: &str, frame: u64) -> PathBuf {
+    root.join(folder).join(format!("{}.png", frame_name(frame)))
 }
 
 /// Splits sequence names (recording days or sessions: the unit that must not straddle splits)
