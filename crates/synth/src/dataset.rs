@@ -206,7 +206,7 @@ pub fn run(
     shots.par_iter().enumerate().try_for_each_init(
         Renderer::new,
         |renderer, (index, shot)| -> Result<()> {
-            let frame_path = out.join("frames").join(format!("{index:06}.png"));
+            let frame_path = native::image_path(out, "frames", index as u64);
             if !(cfg.resume && frame_path.is_file()) {
                 let opts = RenderOptions {
                     mode: cfg.mode,
@@ -220,11 +220,11 @@ pub fn run(
                 let img = renderer.render(&scene, &camera, &shot.frame.pose, &opts, &extra)?;
                 write_png(&frame_path, &encode_rgb(&img.rgb)?)?;
                 if cfg.depth {
-                    let path = out.join("depth").join(format!("{index:06}.png"));
+                    let path = native::image_path(out, "depth", index as u64);
                     write_png(&path, &encode_depth_mm(&img.depth, cfg.width, cfg.height)?)?;
                 }
                 if cfg.planes {
-                    let path = out.join("planes").join(format!("{index:06}.png"));
+                    let path = native::image_path(out, "planes", index as u64);
                     write_png(&path, &encode_planes(&img.plane, cfg.width, cfg.height)?)?;
                 }
                 rendered.fetch_add(1, Ordering::Relaxed);
