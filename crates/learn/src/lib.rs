@@ -37,6 +37,7 @@ pub mod explain;
 mod hash;
 pub mod head;
 pub mod infer;
+pub mod kernels;
 pub mod loader;
 pub mod loss;
 pub mod net;

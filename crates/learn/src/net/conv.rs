@@ -10,7 +10,10 @@
 use burn::module::{Initializer, Module, Param};
 use burn::nn::conv::{Conv2d, Conv2dConfig};
 use burn::nn::{BatchNorm, BatchNormConfig, PaddingConfig2d};
+use burn::tensor::activation::relu;
 use burn::tensor::{Device, Tensor};
+
+use crate::kernels;
 
 /// A bias-free `k x k` convolution with stride and symmetric padding, then BatchNorm
 /// (eps 1e-5, momentum 0.1, as PyTorch). The ReLU is left to the caller because residual blocks
@@ -71,10 +74,150 @@ impl ConvBn {
     /// Convolution then BatchNorm (batch statistics on an autodiff device in training mode,
     /// running statistics otherwise).
     pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
-        if self.folded {
-            self.conv.forward(x)
-        } else {
-            self.bn.forward(self.conv.forward(x))
+        self.forward_with(x, false)
+    }
+
+    /// [`ConvBn::forward`] then ReLU, fused into the BatchNorm when training.
+    pub fn forward_relu(&self, x: Tensor<4>) -> Tensor<4> {
+        self.forward_with(x, true)
+    }
+
+    fn forward_with(&self, x: Tensor<4>, rectify: bool) -> Tensor<4> {
+        let training = !self.folded && x.device().is_autodiff() && self.bn.training.is_enabled();
+        let y = match self.fast_padding(&x) {
+            Some(padding) if training => {
+                let y = kernels::conv2d(x, self.conv.weight.val(), self.conv.stride, padding);
+                return self.batch_norm_train(y, rectify);
+            }
+            _ if self.folded => self.conv.forward(x),
+            _ => self.bn.forward(self.conv.forward(x)),
+        };
+        if rectify { relu(y) } else { y }
+    }
+
+    /// The symmetric padding for [`kernels::conv2d`], when the kernels take this layer and
+    /// input (no bias, no dilation, one group, f32 on flex).
+    fn fast_padding(&self, x: &Tensor<4>) -> Option<[usize; 2]> {
+        let conv = &self.conv;
+        if conv.bias.is_some() || conv.dilation != [1, 1] || conv.groups != 1 {
+            return None;
+        }
+        if !kernels::supported(x) {
+            return None;
+        }
+        // Every ConvBn is built with explicit symmetric padding; other configurations take
+        // burn's path.
+        match conv.padding {
+            PaddingConfig2d::Explicit(top, left, bottom, right) => {
+                (top == bottom && left == right).then_some([top, left])
+            }
+            _ => None,
+        }
+    }
+
+    /// Training-mode BatchNorm (+ ReLU) by [`kernels::batch_norm_train`], updating the running
+    /// statistics exactly as burn's `BatchNorm::forward` does.
+    fn batch_norm_train(&self, x: Tensor<4>, rectify: bool) -> Tensor<4> {
+        let bn = &self.bn;
+        let (y, mean, variance) =
+            kernels::batch_norm_train(x, bn.gamma.val(), bn.beta.val(), bn.epsilon, rectify);
+        let device = y.device();
+        let keep = 1.0 - bn.momentum;
+        let running_mean = bn
+            .running_mean
+            .value_sync()
+            .to_device(&device)
+            .mul_scalar(keep)
+            + mean.mul_scalar(bn.momentum);
+        let running_var = bn
+            .running_var
+            .value_sync()
+            .to_device(&device)
+            .mul_scalar(keep)
+            + variance.mul_scalar(bn.momentum);
+        bn.running_mean.update(running_mean.detach());
+        bn.running_var.update(running_var.detach());
+        y
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use burn::tensor::{Distribution, Tensor};
+
+    use super::*;
+
+    /// burn's own convolution, BatchNorm and ReLU: what the fused kernels replace.
+    fn reference(layer: &ConvBn, x: Tensor<4>, rectify: bool) -> Tensor<4> {
+        let y = layer.bn.forward(layer.conv.forward(x));
+        if rectify { relu(y) } else { y }
+    }
+
+    fn assert_close<const D: usize>(a: Tensor<D>, b: Tensor<D>, what: &str) {
+        let (a, b) = (
+            a.into_data().try_to_vec::<f32>().unwrap(),
+            b.into_data().try_to_vec::<f32>().unwrap(),
+        );
+        assert_eq!(a.len(), b.len(), "{what}");
+        let scale = b.iter().fold(1e-3f32, |m, v| m.max(v.abs()));
+        for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+            assert!((x - y).abs() <= 1e-4 * scale, "{what}[{i}]: {x} vs {y}");
+        }
+    }
+
+    /// The training path through the hand-written kernels gives burn's outputs, gradients
+    /// (input, kernel, γ, β) and running statistics, for a strided and a 1x1 layer, with and
+    /// without the ReLU.
+    #[test]
+    fn fast_training_path_matches_burns_ops() {
+        let device = Device::flex().autodiff();
+        for (cin, cout, k, s, p, rectify) in [
+            (3, 8, 3, 2, 1, true),
+            (4, 6, 1, 1, 0, false),
+            (2, 5, 7, 2, 3, true),
+        ] {
+            device.seed(7);
+            let fast = ConvBn::new(cin, cout, k, s, p, &device);
+            let slow = fast.clone();
+            let x = Tensor::<4>::random([3, cin, 13, 11], Distribution::Normal(0.0, 1.0), &device);
+            let (xf, xs) = (x.clone().require_grad(), x.require_grad());
+            let yf = fast.forward_with(xf.clone(), rectify);
+            let ys = reference(&slow, xs.clone(), rectify);
+            assert_close(yf.clone(), ys.clone(), "output");
+            // A non-uniform output gradient, so that the BatchNorm's gradient is not zero.
+            let weights = Tensor::<4>::random(yf.dims(), Distribution::Normal(0.0, 1.0), &device);
+            let gf = (yf * weights.clone()).sum().backward();
+            let gs = (ys * weights).sum().backward();
+            assert_close(
+                xf.grad(&gf).unwrap(),
+                xs.grad(&gs).unwrap(),
+                "input gradient",
+            );
+            assert_close(
+                fast.conv.weight.grad(&gf).unwrap(),
+                slow.conv.weight.grad(&gs).unwrap(),
+                "kernel gradient",
+            );
+            assert_close(
+                fast.bn.gamma.grad(&gf).unwrap(),
+                slow.bn.gamma.grad(&gs).unwrap(),
+                "gamma gradient",
+            );
+            assert_close(
+                fast.bn.beta.grad(&gf).unwrap(),
+                slow.bn.beta.grad(&gs).unwrap(),
+                "beta gradient",
+            );
+            assert_close(
+                fast.bn.running_mean.value(),
+                slow.bn.running_mean.value(),
+                "running mean",
+            );
+            assert_close(
+                fast.bn.running_var.value(),
+                slow.bn.running_var.value(),
+                "running variance",
+            );
         }
     }
 }

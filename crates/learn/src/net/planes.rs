@@ -8,7 +8,6 @@
 
 use burn::module::{Initializer, Module};
 use burn::nn::conv::{Conv2d, Conv2dConfig};
-use burn::tensor::activation::relu;
 use burn::tensor::{Device, Tensor};
 
 use super::conv::ConvBn;
@@ -50,7 +49,7 @@ impl PlaneBranch {
 
     /// The feature map `[B, PLANE_FEATURES, h, w]` of a stride-8 map `[B, cin, h, w]`.
     pub fn features(&self, mid: Tensor<4>) -> Tensor<4> {
-        relu(self.conv.forward(mid))
+        self.conv.forward_relu(mid)
     }
 
     /// Class logits `[B, PLANE_CLASSES, h, w]` and raw plane parameters

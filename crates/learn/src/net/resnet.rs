@@ -50,7 +50,7 @@ impl BasicBlock {
     }
 
     fn forward(&self, x: Tensor<4>) -> Tensor<4> {
-        let y = self.conv2.forward(relu(self.conv1.forward(x.clone())));
+        let y = self.conv2.forward(self.conv1.forward_relu(x.clone()));
         let shortcut = match &self.downsample {
             Some(d) => d.forward(x),
             None => x,
@@ -122,7 +122,7 @@ impl ResNet {
     /// The stride-8 map (after the second stage, 128 channels) and the output of
     /// [`ResNet::forward`].
     pub fn forward_mid(&self, x: Tensor<4>) -> (Tensor<4>, Tensor<4>) {
-        let mut x = self.pool.forward(relu(self.stem.forward(x)));
+        let mut x = self.pool.forward(self.stem.forward_relu(x));
         let (head, tail) = self.blocks.split_at(self.mid_blocks.min(self.blocks.len()));
         for block in head {
             x = block.forward(x);

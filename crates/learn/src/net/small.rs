@@ -3,7 +3,6 @@
 //! input channel), so its speed can be compared with PyTorch's like for like.
 
 use burn::module::Module;
-use burn::tensor::activation::relu;
 use burn::tensor::{Device, Tensor};
 
 use super::conv::ConvBn;
@@ -54,7 +53,7 @@ impl SmallNet {
     /// The rest of the body from the stride-8 map of [`SmallNet::forward_mid`].
     pub fn forward_tail(&self, mut x: Tensor<4>) -> Tensor<4> {
         for stage in &self.stages[MID_STAGES..] {
-            x = relu(stage.forward(x));
+            x = stage.forward_relu(x);
         }
         x
     }
@@ -64,11 +63,11 @@ impl SmallNet {
     pub fn forward_mid(&self, mut x: Tensor<4>) -> (Tensor<4>, Tensor<4>) {
         let (head, tail) = self.stages.split_at(MID_STAGES);
         for stage in head {
-            x = relu(stage.forward(x));
+            x = stage.forward_relu(x);
         }
         let mid = x.clone();
         for stage in tail {
-            x = relu(stage.forward(x));
+            x = stage.forward_relu(x);
         }
         (mid, x)
     }
