@@ -16,8 +16,10 @@ use burn::tensor::{Device, Tensor};
 use crate::kernels;
 
 /// A bias-free `k x k` convolution with stride and symmetric padding, then BatchNorm
-/// (eps 1e-5, momentum 0.1, as PyTorch). The ReLU is left to the caller because residual blocks
-/// add the shortcut before it.
+/// (eps 1e-5, momentum 0.1, as PyTorch). [`ConvBn::forward_relu`] adds the ReLU (fused into the
+/// BatchNorm in training); residual blocks call [`ConvBn::forward`] and add the shortcut first.
+///
+/// In training on `flex` both layers run on [`crate::kernels`]; otherwise on burn's own ops.
 #[derive(Module, Debug)]
 pub struct ConvBn {
     conv: Conv2d,
@@ -84,13 +86,14 @@ impl ConvBn {
 
     fn forward_with(&self, x: Tensor<4>, rectify: bool) -> Tensor<4> {
         let training = !self.folded && x.device().is_autodiff() && self.bn.training.is_enabled();
-        let y = match self.fast_padding(&x) {
-            Some(padding) if training => {
-                let y = kernels::conv2d(x, self.conv.weight.val(), self.conv.stride, padding);
-                return self.batch_norm_train(y, rectify);
-            }
-            _ if self.folded => self.conv.forward(x),
-            _ => self.bn.forward(self.conv.forward(x)),
+        if let Some(padding) = self.fast_padding(&x).filter(|_| training) {
+            let y = kernels::conv2d(x, self.conv.weight.val(), self.conv.stride, padding);
+            return self.batch_norm_train(y, rectify);
+        }
+        let y = if self.folded {
+            self.conv.forward(x)
+        } else {
+            self.bn.forward(self.conv.forward(x))
         };
         if rectify { relu(y) } else { y }
     }
