@@ -116,6 +116,28 @@ fn stats_of(stats: &BatchStats) -> (FlexTensor, FlexTensor) {
     )
 }
 
+/// BatchNorm (+ ReLU) of contiguous tensors: the output and the batch statistics it used.
+fn batch_norm_forward(
+    x: &FlexTensor,
+    gamma: &FlexTensor,
+    beta: &FlexTensor,
+    epsilon: f64,
+    relu: bool,
+) -> (FlexTensor, BatchStats) {
+    let shape = map_shape(x);
+    let stats = batchnorm::stats(&shape, values(x));
+    let y = batchnorm::forward(
+        &shape,
+        values(x),
+        &stats,
+        values(gamma),
+        values(beta),
+        epsilon,
+        relu,
+    );
+    (tensor(y, &x.shape()), stats)
+}
+
 impl FastOps for Flex {
     fn fast_conv2d(
         x: FlexTensor,
@@ -135,20 +157,10 @@ impl FastOps for Flex {
         relu: bool,
     ) -> BatchNormOutput<Flex> {
         let (x, gamma, beta) = (contiguous(&x), contiguous(&gamma), contiguous(&beta));
-        let shape = map_shape(&x);
-        let stats = batchnorm::stats(&shape, values(&x));
-        let y = batchnorm::forward(
-            &shape,
-            values(&x),
-            &stats,
-            values(&gamma),
-            values(&beta),
-            epsilon,
-            relu,
-        );
+        let (output, stats) = batch_norm_forward(&x, &gamma, &beta, epsilon, relu);
         let (mean, variance) = stats_of(&stats);
         BatchNormOutput {
-            output: tensor(y, &x.shape()),
+            output,
             mean,
             variance,
         }
@@ -257,18 +269,7 @@ impl<C: CheckpointStrategy> FastOps for Autodiff<Flex, C> {
             contiguous(gamma.primitive()),
             contiguous(beta.primitive()),
         );
-        let shape = map_shape(&xp);
-        let stats = batchnorm::stats(&shape, values(&xp));
-        let y = batchnorm::forward(
-            &shape,
-            values(&xp),
-            &stats,
-            values(&gp),
-            values(&bp),
-            epsilon,
-            relu,
-        );
-        let y = tensor(y, &xp.shape());
+        let (y, stats) = batch_norm_forward(&xp, &gp, &bp, epsilon, relu);
         let (mean, variance) = stats_of(&stats);
         let output = match prepared {
             OpsKind::Tracked(prep) => prep.finish((xp, gp, bp, stats, epsilon, relu), y),
