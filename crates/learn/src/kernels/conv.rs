@@ -1,5 +1,6 @@
 //! 2-D convolution (groups 1, dilation 1) and both of its gradients by im2col and one matrix
-//! product per image, images in parallel: the layout PyTorch's CPU path uses.
+//! product per group of images (one image where an image has enough output pixels, more side
+//! by side in deep layers, see [`GROUP_COLUMNS`]), groups in parallel.
 //!
 //! Written by hand because burn-flex 0.22 differentiates a convolution through generic ops: the
 //! input gradient as a transposed convolution and the weight gradient as a convolution whose
@@ -81,19 +82,63 @@ impl ConvGeometry {
     }
 }
 
-/// Fills `cols` (`rows x cols`, row-major) with the patches of one image.
-fn im2col(g: &ConvGeometry, image: &[f32], cols: &mut [f32]) {
+/// Fewest columns (output pixels of all its images) a group's matrix product should have.
+/// Deep layers of a small input have a handful of output pixels per image (4 for the last
+/// stage at 64x48); a product per image would then repack the whole weight matrix for a few
+/// columns and, for the weight gradient, read and write it once per image. Images are grouped
+/// side by side in one column matrix until it is this wide.
+const GROUP_COLUMNS: usize = 256;
+
+/// How a batch is cut into groups of images that share one matrix product.
+#[derive(Clone, Copy, Debug)]
+struct Groups {
+    /// Images per group (the last group may have fewer).
+    size: usize,
+    /// Groups in the batch.
+    count: usize,
+    /// Threads each product may use: all of them when there are fewer groups than threads,
+    /// else 1 (the groups run in parallel instead).
+    gemm_threads: usize,
+}
+
+impl Groups {
+    fn of(g: &ConvGeometry) -> Groups {
+        let threads = rayon::current_num_threads().max(1);
+        let size = GROUP_COLUMNS
+            .div_ceil(g.cols().max(1))
+            .clamp(1, g.batch.max(1));
+        let count = g.batch.div_ceil(size);
+        let gemm_threads = if count < threads { threads } else { 1 };
+        Groups {
+            size,
+            count,
+            gemm_threads,
+        }
+    }
+
+    /// The images `[first, first + n)` of group `k`.
+    fn images(&self, g: &ConvGeometry, k: usize) -> (usize, usize) {
+        let first = k * self.size;
+        (first, self.size.min(g.batch - first))
+    }
+}
+
+/// Fills the patches of one image into `dst`: patch row `r` (one input channel and kernel
+/// offset) is the `oh * ow` values starting at `dst[r * row_stride]`, so the patches of several
+/// images can sit side by side in one column matrix.
+fn im2col(g: &ConvGeometry, image: &[f32], dst: &mut [f32], row_stride: usize) {
     let [h, w] = g.input;
     let [oh, ow] = g.output();
     let [kh, kw] = g.kernel;
     let [sh, sw] = g.stride;
     let [ph, pw] = g.padding;
-    for (row, dst) in cols.chunks_exact_mut(oh * ow).enumerate() {
+    for row in 0..g.rows() {
+        let out = &mut dst[row * row_stride..][..oh * ow];
         let (ci, ky, kx) = (row / (kh * kw), row / kw % kh, row % kw);
         let plane = &image[ci * h * w..(ci + 1) * h * w];
         let (y0, y1) = g.valid(0, ky);
         let (x0, x1) = g.valid(1, kx);
-        for (oy, out_row) in dst.chunks_exact_mut(ow).enumerate() {
+        for (oy, out_row) in out.chunks_exact_mut(ow).enumerate() {
             if oy < y0 || oy >= y1 {
                 out_row.fill(0.0);
                 continue;
@@ -116,14 +161,16 @@ fn im2col(g: &ConvGeometry, image: &[f32], cols: &mut [f32]) {
     }
 }
 
-/// Adds the column matrix `cols` back onto one image's gradient (the adjoint of [`im2col`]).
-fn col2im_add(g: &ConvGeometry, cols: &[f32], image: &mut [f32]) {
+/// Adds the patches laid out as [`im2col`] writes them back onto one image's gradient (its
+/// adjoint).
+fn col2im_add(g: &ConvGeometry, src: &[f32], row_stride: usize, image: &mut [f32]) {
     let [h, w] = g.input;
     let [oh, ow] = g.output();
     let [kh, kw] = g.kernel;
     let [sh, sw] = g.stride;
     let [ph, pw] = g.padding;
-    for (row, src) in cols.chunks_exact(oh * ow).enumerate() {
+    for row in 0..g.rows() {
+        let cols = &src[row * row_stride..][..oh * ow];
         let (ci, ky, kx) = (row / (kh * kw), row / kw % kh, row % kw);
         let plane = &mut image[ci * h * w..(ci + 1) * h * w];
         let (y0, y1) = g.valid(0, ky);
@@ -131,10 +178,38 @@ fn col2im_add(g: &ConvGeometry, cols: &[f32], image: &mut [f32]) {
         for oy in y0..y1 {
             let dst = &mut plane[(oy * sh + ky - ph) * w..][..w];
             let first = x0 * sw + kx - pw;
-            let src_row = &src[oy * ow + x0..oy * ow + x1];
+            let src_row = &cols[oy * ow + x0..oy * ow + x1];
             for (d, v) in dst[first..].iter_mut().step_by(sw).zip(src_row) {
                 *d += *v;
             }
+        }
+    }
+}
+
+/// The column matrix `[rows, n * cols]` of images `[first, first + n)` of the batch `x`.
+fn group_patches(g: &ConvGeometry, x: &[f32], first: usize, n: usize, buf: &mut Vec<f32>) {
+    let (rows, cols) = (g.rows(), g.cols());
+    buf.resize(rows * n * cols, 0.0);
+    for i in 0..n {
+        let image = &x[(first + i) * g.input_len()..][..g.input_len()];
+        im2col(g, image, &mut buf[i * cols..], n * cols);
+    }
+}
+
+/// Images `[first, first + n)` of a `[batch, c, cols]` tensor as one `[c, n * cols]` matrix
+/// (`channels` rows), or back (`to_batch`): the layout change between a group's product and the
+/// batch.
+fn regroup(src: &[f32], dst: &mut [f32], channels: usize, cols: usize, n: usize, to_batch: bool) {
+    for i in 0..n {
+        for c in 0..channels {
+            let batch = (i * channels + c) * cols;
+            let group = (c * n + i) * cols;
+            let (from, to) = if to_batch {
+                (group, batch)
+            } else {
+                (batch, group)
+            };
+            dst[to..to + cols].copy_from_slice(&src[from..from + cols]);
         }
     }
 }
@@ -144,51 +219,68 @@ pub fn forward(g: &ConvGeometry, x: &[f32], weight: &[f32]) -> Vec<f32> {
     assert_eq!(x.len(), g.batch * g.input_len(), "input size");
     assert_eq!(weight.len(), g.cout * g.rows(), "weight size");
     let (rows, cols) = (g.rows(), g.cols());
+    let groups = Groups::of(g);
     let mut y = vec![0.0; g.batch * g.output_len()];
     let w = MatRef::row_major(weight, g.cout, rows);
-    x.par_chunks_exact(g.input_len())
-        .zip(y.par_chunks_exact_mut(g.output_len()))
+    y.par_chunks_mut((groups.size * g.output_len()).max(1))
+        .enumerate()
         .for_each_init(
-            || vec![0.0; if g.is_pointwise() { 0 } else { rows * cols }],
-            |buf, (image, out)| {
-                let patches = if g.is_pointwise() {
-                    image
+            || (Vec::new(), Vec::new()),
+            |(patches, product), (k, out)| {
+                let (first, n) = groups.images(g, k);
+                let images = &x[first * g.input_len()..(first + n) * g.input_len()];
+                let p = if g.is_pointwise() {
+                    patches.resize(rows * n * cols, 0.0);
+                    regroup(images, patches, rows, cols, n, false);
+                    &patches[..]
                 } else {
-                    im2col(g, image, buf);
-                    buf
+                    group_patches(g, x, first, n, patches);
+                    &patches[..]
                 };
-                matmul(out, w, MatRef::row_major(patches, rows, cols), false, 1);
+                let p = MatRef::row_major(p, rows, n * cols);
+                if n == 1 {
+                    matmul(out, w, p, false, groups.gemm_threads);
+                } else {
+                    product.resize(g.cout * n * cols, 0.0);
+                    matmul(product, w, p, false, groups.gemm_threads);
+                    regroup(product, out, g.cout, cols, n, true);
+                }
             },
         );
     y
 }
 
-/// The weight gradient `Σ_images dy · colsᵀ`: `[cout, cin, kh, kw]`. Images are split into one
-/// run per thread, each summing into its own gradient; the runs are added at the end.
+/// The weight gradient `Σ_groups dy · colsᵀ`: `[cout, cin, kh, kw]`. Groups are split into one
+/// run per thread, each summing into its own gradient; the runs are added at the end, always
+/// in the same order.
 pub fn backward_weight(g: &ConvGeometry, x: &[f32], dy: &[f32]) -> Vec<f32> {
     assert_eq!(x.len(), g.batch * g.input_len(), "input size");
     assert_eq!(dy.len(), g.batch * g.output_len(), "output gradient size");
     let (rows, cols) = (g.rows(), g.cols());
-    let runs = rayon::current_num_threads().clamp(1, g.batch.max(1));
-    let per_run = g.batch.div_ceil(runs);
+    let groups = Groups::of(g);
+    let runs = rayon::current_num_threads().clamp(1, groups.count.max(1));
+    let per_run = groups.count.div_ceil(runs);
     let partial = |run: usize| {
         let mut dw = vec![0.0; g.cout * rows];
-        let mut buf = vec![0.0; if g.is_pointwise() { 0 } else { rows * cols }];
-        for b in run * per_run..((run + 1) * per_run).min(g.batch) {
-            let image = &x[b * g.input_len()..(b + 1) * g.input_len()];
-            let patches: &[f32] = if g.is_pointwise() {
-                image
+        let (mut patches, mut grads) = (Vec::new(), Vec::new());
+        for k in run * per_run..((run + 1) * per_run).min(groups.count) {
+            let (first, n) = groups.images(g, k);
+            let images = &x[first * g.input_len()..(first + n) * g.input_len()];
+            if g.is_pointwise() {
+                patches.resize(rows * n * cols, 0.0);
+                regroup(images, &mut patches, rows, cols, n, false);
             } else {
-                im2col(g, image, &mut buf);
-                &buf
-            };
-            let grad = &dy[b * g.output_len()..(b + 1) * g.output_len()];
+                group_patches(g, x, first, n, &mut patches);
+            }
+            let grad = &dy[first * g.output_len()..(first + n) * g.output_len()];
+            grads.resize(g.cout * n * cols, 0.0);
+            regroup(grad, &mut grads, g.cout, cols, n, false);
             matmul(
                 &mut dw,
-                MatRef::row_major(grad, g.cout, cols),
-                MatRef::row_major(patches, rows, cols).t(),
+                MatRef::row_major(&grads, g.cout, n * cols),
+                MatRef::row_major(&patches, rows, n * cols).t(),
                 true,
-                1,
+                groups.gemm_threads,
             );
         }
         dw
@@ -203,24 +295,32 @@ pub fn backward_weight(g: &ConvGeometry, x: &[f32], dy: &[f32]) -> Vec<f32> {
         .unwrap_or_else(|| vec![0.0; g.cout * rows])
 }
 
-/// The input gradient: per image `wᵀ · dy` folded back onto the image ([`col2im_add`]).
+/// The input gradient: per group `wᵀ · dy`, folded back onto each image ([`col2im_add`]).
 pub fn backward_input(g: &ConvGeometry, weight: &[f32], dy: &[f32]) -> Vec<f32> {
     assert_eq!(weight.len(), g.cout * g.rows(), "weight size");
     assert_eq!(dy.len(), g.batch * g.output_len(), "output gradient size");
     let (rows, cols) = (g.rows(), g.cols());
+    let groups = Groups::of(g);
     let mut dx = vec![0.0; g.batch * g.input_len()];
     let wt = MatRef::row_major(weight, g.cout, rows).t();
-    dx.par_chunks_exact_mut(g.input_len())
-        .zip(dy.par_chunks_exact(g.output_len()))
+    dx.par_chunks_mut((groups.size * g.input_len()).max(1))
+        .enumerate()
         .for_each_init(
-            || vec![0.0; if g.is_pointwise() { 0 } else { rows * cols }],
-            |buf, (image, grad)| {
-                let grad = MatRef::row_major(grad, g.cout, cols);
+            || (Vec::new(), Vec::new()),
+            |(grads, patches), (k, images)| {
+                let (first, n) = groups.images(g, k);
+                let grad = &dy[first * g.output_len()..(first + n) * g.output_len()];
+                grads.resize(g.cout * n * cols, 0.0);
+                regroup(grad, grads, g.cout, cols, n, false);
+                let grad = MatRef::row_major(grads, g.cout, n * cols);
+                patches.resize(rows * n * cols, 0.0);
+                matmul(patches, wt, grad, false, groups.gemm_threads);
                 if g.is_pointwise() {
-                    matmul(image, wt, grad, false, 1);
+                    regroup(patches, images, rows, cols, n, true);
                 } else {
-                    matmul(buf, wt, grad, false, 1);
-                    col2im_add(g, buf, image);
+                    for (i, image) in images.chunks_exact_mut(g.input_len()).enumerate() {
+                        col2im_add(g, &patches[i * cols..], n * cols, image);
+                    }
                 }
             },
         );
@@ -287,6 +387,10 @@ mod tests {
             g(4, [6, 5], 5, [1, 1], [1, 1], [0, 0]),
             g(4, [7, 6], 5, [1, 1], [2, 2], [0, 0]),
             g(2, [5, 6], 3, [3, 2], [1, 2], [0, 1]),
+            // 272 output pixels: a product per image.
+            g(1, [16, 17], 2, [3, 3], [1, 1], [1, 1]),
+            // 144 output pixels: groups of two images, the last one alone.
+            g(2, [12, 12], 3, [3, 3], [1, 1], [1, 1]),
         ]
     }
 
