@@ -186,12 +186,17 @@ fn col2im_add(g: &ConvGeometry, src: &[f32], row_stride: usize, image: &mut [f32
     }
 }
 
-/// The column matrix `[rows, n * cols]` of images `[first, first + n)` of the batch `x`.
+/// The column matrix `[rows, n * cols]` of images `[first, first + n)` of the batch `x` (for a
+/// pointwise convolution, the images themselves side by side).
 fn group_patches(g: &ConvGeometry, x: &[f32], first: usize, n: usize, buf: &mut Vec<f32>) {
     let (rows, cols) = (g.rows(), g.cols());
     buf.resize(rows * n * cols, 0.0);
-    for i in 0..n {
-        let image = &x[(first + i) * g.input_len()..][..g.input_len()];
+    let images = &x[first * g.input_len()..(first + n) * g.input_len()];
+    if g.is_pointwise() {
+        regroup(images, buf, rows, cols, n, false);
+        return;
+    }
+    for (i, image) in images.chunks_exact(g.input_len()).enumerate() {
         im2col(g, image, &mut buf[i * cols..], n * cols);
     }
 }
@@ -228,16 +233,8 @@ pub fn forward(g: &ConvGeometry, x: &[f32], weight: &[f32]) -> Vec<f32> {
             || (Vec::new(), Vec::new()),
             |(patches, product), (k, out)| {
                 let (first, n) = groups.images(g, k);
-                let images = &x[first * g.input_len()..(first + n) * g.input_len()];
-                let p = if g.is_pointwise() {
-                    patches.resize(rows * n * cols, 0.0);
-                    regroup(images, patches, rows, cols, n, false);
-                    &patches[..]
-                } else {
-                    group_patches(g, x, first, n, patches);
-                    &patches[..]
-                };
-                let p = MatRef::row_major(p, rows, n * cols);
+                group_patches(g, x, first, n, patches);
+                let p = MatRef::row_major(patches, rows, n * cols);
                 if n == 1 {
                     matmul(out, w, p, false, groups.gemm_threads);
                 } else {
@@ -265,13 +262,7 @@ pub fn backward_weight(g: &ConvGeometry, x: &[f32], dy: &[f32]) -> Vec<f32> {
         let (mut patches, mut grads) = (Vec::new(), Vec::new());
         for k in run * per_run..((run + 1) * per_run).min(groups.count) {
             let (first, n) = groups.images(g, k);
-            let images = &x[first * g.input_len()..(first + n) * g.input_len()];
-            if g.is_pointwise() {
-                patches.resize(rows * n * cols, 0.0);
-                regroup(images, &mut patches, rows, cols, n, false);
-            } else {
-                group_patches(g, x, first, n, &mut patches);
-            }
+            group_patches(g, x, first, n, &mut patches);
             let grad = &dy[first * g.output_len()..(first + n) * g.output_len()];
             grads.resize(g.cout * n * cols, 0.0);
             regroup(grad, &mut grads, g.cout, cols, n, false);
