@@ -155,8 +155,8 @@ fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
     // (it took about 50 min on two cores before `learn::kernels`). With 8 000 frames the
     // networks were still far from fitting after 4 epochs (3.7 m training error), so fewer
     // would not do. Measured with 12 000 frames and 8 epochs: 0.49 m / 0.65° in 22 min; with
-    // the quick run's 80x60 view instead, 0.35 m / 0.65° in 7 min (the 160x120 network only
-    // settles once the rate has decayed).
+    // the quick run's 80x60 view instead, 0.35 m / 0.65° in 7 min, and 0.21 m / 0.30° in 15 min
+    // with 24 000 frames (the 160x120 network only settles once the rate has decayed).
     //
     // The quick forward run spends its steps on 8 000 frames for 8 epochs with jittered views:
     // on the held-out walk 0.61 m against 1.03 m for 16 000 frames for 4 epochs unjittered
