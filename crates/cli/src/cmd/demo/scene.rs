@@ -47,6 +47,11 @@ pub struct ScenePlan {
     pub walks_per_variant: usize,
     /// Frames per training walk.
     pub frames_per_walk: usize,
+    /// Frame rate of the training walks when not the rig's (the validation and test walks
+    /// always run at the rig's): fewer frames a second spread the same frames over more ground.
+    /// Left out of the plan file when the rig's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub train_fps: Option<f64>,
     /// Frames of the validation walk (normal appearance).
     pub val_frames: usize,
     /// Frames of the held-out test walk.
@@ -201,7 +206,14 @@ fn rig(plan: &ScenePlan) -> Rig {
 fn sequences(plan: &ScenePlan) -> Result<Vec<Sequence>> {
     let zone = zone_world(plan)?;
     let cfg = WalkConfig::for_rig(rig(plan));
-    let walk = |frames: usize, k: u64| trajectory::walk(&zone, &cfg, frames, plan.seed * 1000 + k);
+    let train_cfg = WalkConfig {
+        fps: plan.train_fps.unwrap_or(cfg.fps),
+        ..cfg.clone()
+    };
+    let walk_at = |cfg: &WalkConfig, frames: usize, k: u64| {
+        trajectory::walk(&zone, cfg, frames, plan.seed * 1000 + k)
+    };
+    let walk = |frames: usize, k: u64| walk_at(&cfg, frames, k);
     let mut seqs = Vec::new();
     for (v, variant) in plan.variants()?.into_iter().enumerate() {
         for w in 0..plan.walks_per_variant {
@@ -209,7 +221,7 @@ fn sequences(plan: &ScenePlan) -> Result<Vec<Sequence>> {
             let mut seq = Sequence::new(
                 format!("train-{}-{w}", variant.name()),
                 variant,
-                walk(plan.frames_per_walk, k)?,
+                walk_at(&train_cfg, plan.frames_per_walk, k)?,
             );
             seq.materials = plan.random_materials.then(|| (plan.seed * 1000 + k) << 16);
             seqs.push(seq);
@@ -553,6 +565,9 @@ fn write_metadata(
     settings.insert("test_mode".into(), RenderMode::Textured.to_string());
     settings.insert("test_variant".into(), plan.test_variant.clone());
     settings.insert("train_variants".into(), plan.train_variants.join(","));
+    if let Some(fps) = plan.train_fps {
+        settings.insert("train_fps".into(), fps.to_string());
+    }
     let ceiling = plan.camera_kind() == CameraKind::Ceiling;
     let info = DatasetInfo {
         name: format!(
@@ -597,4 +612,59 @@ pub fn photo_as(img: image::DynamicImage, mode: RenderMode) -> Result<image::Dyn
             image::DynamicImage::ImageLuma8(edges)
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan(train_fps: Option<f64>) -> ScenePlan {
+        ScenePlan {
+            seed: 1,
+            camera: "forward".into(),
+            building: 0,
+            storey: 0,
+            zone: "corridor".into(),
+            width: 32,
+            height: 24,
+            train_variants: vec!["normal".into(), "dim".into()],
+            walks_per_variant: 1,
+            frames_per_walk: 5,
+            train_fps,
+            val_frames: 3,
+            test_frames: 4,
+            train_mode: textured(),
+            test_variant: normal(),
+            random_materials: false,
+            depth: false,
+        }
+    }
+
+    /// Seconds between a sequence's consecutive frames.
+    fn steps(seq: &Sequence) -> Vec<f64> {
+        seq.frames.windows(2).map(|w| w[1].t - w[0].t).collect()
+    }
+
+    #[test]
+    fn training_walks_take_their_own_frame_rate_and_the_test_walk_keeps_the_rigs() -> Result<()> {
+        let rig_fps = WalkConfig::for_rig(rig(&plan(None))).fps;
+        let slow = sequences(&plan(Some(1.0)))?;
+        assert_eq!(slow.len(), 4);
+        for seq in &slow {
+            let expected = if seq.name.starts_with("train-") {
+                1.0
+            } else {
+                1.0 / rig_fps
+            };
+            for step in steps(seq) {
+                assert!((step - expected).abs() < 1e-9, "{}: {step}", seq.name);
+            }
+        }
+        // The rig's rate: the plan file of an earlier demo (no `train_fps`) still matches.
+        for seq in sequences(&plan(None))? {
+            assert!(steps(&seq).iter().all(|s| (s - 1.0 / rig_fps).abs() < 1e-9));
+        }
+        assert!(!toml::to_string(&plan(None))?.contains("train_fps"));
+        Ok(())
+    }
 }
