@@ -44,7 +44,7 @@ pub struct DemoArgs {
     /// Folder for the dataset, the model and the report (reused by a second run).
     #[arg(long, value_name = "DIR", default_value = "indoorloc-demo")]
     out: PathBuf,
-    /// A smaller dataset and shorter training: about 2 minutes instead of about 21 on two cores.
+    /// A smaller dataset and shorter training: about 2.5 minutes instead of about 21 on two cores.
     #[arg(long)]
     quick: bool,
     /// Forward-looking hand-held camera (6-DoF) or upward ceiling camera (3-DoF).
