@@ -170,7 +170,7 @@ fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
     // the full run, with two networks: the 160x120 view itself gave 0.49 m / 0.65° on 12 000
     // frames for 8 epochs in 22 min (its networks only settle once the rate has decayed); the
     // 80x60 view 0.35 m in 7 min on the same frames, 0.21 m / 0.30° on 24 000 frames in 15
-    // min, and 0.19 m / 0.17° with 10 epochs (in 21 min with a build running beside it).
+    // min, and 0.19 m / 0.17° with 10 epochs in 18 min.
     //
     // The quick forward run spends its steps on 8 000 frames for 10 epochs with jittered views
     // and dropout 0.1. With 10 Hz training walks: 0.61 m against 1.03 m for 16 000 frames for
