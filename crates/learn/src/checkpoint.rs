@@ -24,6 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::hash::Fnv64;
 use crate::head::PoseCoding;
+use crate::infer::SigmaParts;
 use crate::net::{NetConfig, PoseNet};
 use crate::train::{EpochMetrics, TrainConfig};
 use crate::{LearnError, Result};
@@ -100,9 +101,54 @@ pub struct ModelMeta {
     pub state: StateFiles,
     /// Metrics of every finished epoch.
     pub history: Vec<EpochMetrics>,
+    /// Weights of the parts of `sigma_pos_m`, fitted on the validation frames after training
+    /// ([`crate::calibrate`]); `None` until then, and for models from before (all 1 then).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma_weights: Option<SigmaWeights>,
+}
+
+/// Weights of the three variances `sigma_pos_m` adds up ([`crate::infer::SigmaParts`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SigmaWeights {
+    /// Weight of the MC spread².
+    pub mc: f64,
+    /// Weight of the TTA views' spread².
+    pub tta: f64,
+    /// Weight of the per-image scale's variance.
+    pub scale: f64,
+}
+
+impl SigmaWeights {
+    /// Every part as it is.
+    pub const UNIT: SigmaWeights = SigmaWeights {
+        mc: 1.0,
+        tta: 1.0,
+        scale: 1.0,
+    };
+
+    /// The weighed sum of `parts`, m².
+    pub fn variance(&self, parts: &SigmaParts) -> f64 {
+        self.mc * parts.mc + self.tta * parts.tta + self.scale * parts.scale
+    }
+
+    fn check(&self) -> std::result::Result<(), String> {
+        let ok = [self.mc, self.tta, self.scale]
+            .iter()
+            .all(|w| w.is_finite() && *w >= 0.0);
+        if ok {
+            Ok(())
+        } else {
+            Err(format!("sigma weights {self:?} must be finite and not negative"))
+        }
+    }
 }
 
 impl ModelMeta {
+    /// The weights of the parts of `sigma_pos_m` (all 1 before calibration).
+    pub fn sigma_weights(&self) -> SigmaWeights {
+        self.sigma_weights.unwrap_or(SigmaWeights::UNIT)
+    }
+
     /// Reads and checks `dir/model.toml`.
     pub fn read(dir: &Path) -> Result<ModelMeta> {
         let path = dir.join(MODEL_TOML);
@@ -150,7 +196,7 @@ impl ModelMeta {
         if !(0.0..1.0).contains(&self.dropout) {
             return Err(format!("dropout {} outside [0, 1)", self.dropout));
         }
-        Ok(())
+        self.sigma_weights.as_ref().map_or(Ok(()), SigmaWeights::check)
     }
 
     /// Writes `dir/model.toml` atomically.

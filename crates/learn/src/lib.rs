@@ -30,6 +30,7 @@
 //! ```
 
 pub mod bench;
+pub mod calibrate;
 pub mod checkpoint;
 pub mod dataset;
 mod error;
@@ -46,6 +47,7 @@ pub mod planes;
 pub mod progress;
 pub mod seq;
 pub mod train;
+pub mod tta;
 pub mod window;
 
 pub use error::{LearnError, Result};

@@ -363,17 +363,24 @@ pub fn evaluate(
 ) -> Result<(f64, f64, f64)> {
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     let input = [samples.channels, samples.height, samples.width];
-    let rows = infer::run(net, &samples.inputs, input, 1, 0.0, &mut rng, device)?;
-    let est = infer::estimates(coding, &rows, 1);
-    let pos: Vec<f64> = est
+    let outputs = infer::image_outputs(
+        net,
+        &samples.inputs,
+        input,
+        infer::Passes::PLAIN,
+        &mut rng,
+        device,
+    )?;
+    let poses: Vec<_> = outputs.iter().map(|o| o.parts(coding).0).collect();
+    let pos: Vec<f64> = poses
         .iter()
         .zip(&samples.poses)
-        .map(|(e, gt)| geom::metrics::position_error(gt, &e.pose))
+        .map(|(e, gt)| geom::metrics::position_error(gt, e))
         .collect();
-    let rot: Vec<f64> = est
+    let rot: Vec<f64> = poses
         .iter()
         .zip(&samples.poses)
-        .map(|(e, gt)| geom::metrics::rotation_error_deg(gt, &e.pose))
+        .map(|(e, gt)| geom::metrics::rotation_error_deg(gt, e))
         .collect();
     let stats = |v: &[f64]| {
         geom::metrics::Stats::of(v)
@@ -432,6 +439,7 @@ fn fresh(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device) 
         weights_hash: String::new(),
         state: StateFiles::default(),
         history: Vec::new(),
+        sigma_weights: None,
     };
     Ok(Start {
         meta,
@@ -673,6 +681,10 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
             break;
         }
     }
+    if meta.sigma_weights.is_none() && meta.best_epoch > 0 {
+        meta.sigma_weights = crate::calibrate::calibrate(&cfg.out, &data.val)?;
+        meta.write(&cfg.out)?;
+    }
     Ok(TrainSummary::of(&meta, &cfg.out))
 }
 
@@ -746,6 +758,8 @@ fn save_epoch(
     if let Some(best) = best {
         let bytes = checkpoint::weights_bytes(best, &dir.join(MODEL_BPK))?;
         meta.weights_hash = checkpoint::write_file(dir, MODEL_BPK, &bytes)?;
+        // New weights: the uncertainty is calibrated again once training ends.
+        meta.sigma_weights = None;
     }
     meta.write(dir)?;
     checkpoint::prune_state(dir, &meta.state);

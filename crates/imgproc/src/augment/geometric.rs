@@ -7,6 +7,7 @@
 use image::{ImageBuffer, Pixel};
 use serde::{Deserialize, Serialize};
 
+use crate::view::View;
 use crate::{ImgprocError, Result};
 
 /// What to put where a warped image has no source pixel (the corners of a rotated image).
@@ -422,6 +423,49 @@ fn warp_impl<const C: usize>(s: &Sampler<'_>, dst: &mut [u8], dw: usize, dh: usi
     }
 }
 
+/// Warps a network view (`f32` planes) by the forward pixel map `map` with bilinear
+/// interpolation, each channel alike; samples outside the view come from `border`. For
+/// test-time augmentation, where the view exists only as floats (after CLAHE and
+/// normalisation), so [`warp_affine`]'s byte path does not apply.
+pub fn warp_view(view: &View, map: &Affine2, border: Border) -> Result<View> {
+    let (w, h) = (view.width as usize, view.height as usize);
+    let plane = w * h;
+    if plane == 0 || view.data.len() != plane * view.channels as usize {
+        return Err(ImgprocError::Size(format!(
+            "cannot warp a {}x{}x{} view of {} values",
+            view.channels,
+            view.width,
+            view.height,
+            view.data.len()
+        )));
+    }
+    let inv = map.inverse()?;
+    let mut data = vec![0f32; view.data.len()];
+    for (src, dst) in view.data.chunks_exact(plane).zip(data.chunks_exact_mut(plane)) {
+        let at = |x: i64, y: i64| -> f32 {
+            let inside = x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h;
+            match (inside, border) {
+                (true, _) => src[y as usize * w + x as usize],
+                (false, Border::Black) => 0.0,
+                (false, Border::Reflect) => src[reflect101(y, h) * w + reflect101(x, w)],
+            }
+        };
+        for (i, out) in dst.iter_mut().enumerate() {
+            let (sx, sy) = inv.apply((i % w) as f64, (i / w) as f64);
+            let (x0, y0) = (floor_i64(sx), floor_i64(sy));
+            let (fx, fy) = ((sx - x0 as f64) as f32, (sy - y0 as f64) as f32);
+            let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx;
+            let bottom = at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx;
+            *out = top * (1.0 - fy) + bottom * fy;
+        }
+    }
+    Ok(View {
+        data,
+        norm: view.norm.clone(),
+        ..*view
+    })
+}
+
 /// A weighted sum with weights summing to `ONE²`, back to a byte, rounding half up. The sum is a
 /// convex combination of bytes, so the result fits.
 #[inline]
@@ -719,5 +763,32 @@ mod tests {
         assert_eq!(reflect101(-1, 5), 1);
         assert_eq!(reflect101(5, 5), 3);
         assert_eq!(reflect101(-7, 1), 0);
+    }
+
+
+    #[test]
+    fn view_warp_moves_float_planes() -> Result<()> {
+        let view = View {
+            channels: 2,
+            width: 4,
+            height: 3,
+            data: (0..24).map(|i| i as f32 * 0.5).collect(),
+            norm: None,
+        };
+        assert_eq!(warp_view(&view, &Affine2::IDENTITY, Border::Black)?, view);
+        // Half a pixel right: each pixel the mean of itself and its left neighbour, in each
+        // channel; the first column reaches past the edge (black: half weight, mirror: x = 1).
+        let half = Affine2 {
+            m: [1.0, 0.0, 0.5, 0.0, 1.0, 0.0],
+        };
+        let black = warp_view(&view, &half, Border::Black)?;
+        let mirror = warp_view(&view, &half, Border::Reflect)?;
+        assert_eq!(black.data[13], (view.data[12] + view.data[13]) / 2.0);
+        assert_eq!(black.data[12], view.data[12] / 2.0);
+        assert_eq!(mirror.data[12], (view.data[13] + view.data[12]) / 2.0);
+        let mut short = view.clone();
+        short.data.pop();
+        assert!(warp_view(&short, &half, Border::Black).is_err());
+        Ok(())
     }
 }

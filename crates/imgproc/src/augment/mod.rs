@@ -69,6 +69,7 @@ use serde::{Deserialize, Serialize};
 
 pub use geometric::{
     Affine2, AffineParams, Border, LabelChange, affine_jitter, rotate_about_center, warp_affine,
+    warp_view,
 };
 pub use photometric::{
     EraseFill, EraseParams, EraseRect, MAX_BLUR_SIGMA, add_gaussian_noise, adjust_brightness,

@@ -49,17 +49,16 @@ pub fn group_masks(
         .collect()
 }
 
-/// `passes` stochastic outputs per image in one batch: `[B, C, H, W] -> [B * passes, outputs]`,
-/// rows `b * passes .. (b + 1) * passes` belonging to image `b`. The backbone runs once per
-/// image; only the pooled features are repeated and sent through the masked head.
-pub fn mc_outputs(
+/// `passes` stochastic head outputs per row of pooled `features` `[B, F]`:
+/// `[B * passes, outputs]`, rows `b * passes .. (b + 1) * passes` belonging to image `b`. Only
+/// the features are repeated and sent through the masked head; the backbone ran once.
+pub fn mc_head(
     net: &PoseNet,
-    x: Tensor<4>,
+    features: Tensor<2>,
     passes: usize,
     p: f64,
     rng: &mut ChaCha8Rng,
 ) -> Tensor<2> {
-    let features = net.features(x);
     let [b, f] = features.dims();
     let repeated = features
         .unsqueeze_dim::<3>(1)

@@ -779,7 +779,8 @@ mod tests {
         assert_eq!(net.features(x.clone()).dims(), [2, 2 * 256]);
         assert_eq!(net.forward(x.clone()).dims(), [2, 5]);
         let mut rng = <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1);
-        assert_eq!(mc::mc_outputs(&net, x, 3, 0.2, &mut rng).dims(), [6, 5]);
+        let features = net.features(x);
+        assert_eq!(mc::mc_head(&net, features, 3, 0.2, &mut rng).dims(), [6, 5]);
         assert!(config(Arch::Small, 2).init(&device, 0).is_err());
         Ok(())
     }

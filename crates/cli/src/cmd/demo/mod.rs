@@ -131,6 +131,11 @@ pub struct DemoArgs {
     /// Monte-Carlo-dropout passes per test frame.
     #[arg(long, default_value_t = 16)]
     mc: usize,
+    /// Test-time augmentation: each test frame is also seen as four copies shifted by one 80th
+    /// of its width (a slight pan or tilt); the position is their mean and their spread joins
+    /// the uncertainty.
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set, value_name = "BOOL")]
+    tta: bool,
     /// Print one JSON document instead of a table.
     #[arg(long)]
     json: bool,
@@ -441,7 +446,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     say("3/4 localizing the held-out test walk, and a walk with scene cuts through the filter");
     let t = Instant::now();
     let ds = NativeDataset::open(&data_dir)?;
-    let results = localize_test(&ds, &model_dir, args.mc, setup.scene.train_mode()?)?;
+    let results = localize_test(&ds, &model_dir, args.mc, args.tta, setup.scene.train_mode()?)?;
     let cuts = crate::cmd::study::cuts::measure(
         &setup.scene,
         &model_dir,
@@ -467,6 +472,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             eval: &eval,
             uncertainty: &uncertainty,
             scale: setup.train.aleatoric,
+            tta: args.tta,
+            weights: learn::checkpoint::ModelMeta::read(&model_dir)?.sigma_weights(),
             summary: &summary,
             cuts: &cuts,
             model_dir: &model_dir,
@@ -518,9 +525,10 @@ pub(crate) fn localize_test(
     ds: &NativeDataset,
     model_dir: &Path,
     mc: usize,
+    tta: bool,
     photo_as: RenderMode,
 ) -> Result<Vec<FrameResult>> {
-    let loc = Localizer::load(model_dir)?;
+    let loc = Localizer::load(model_dir)?.with_tta(tta);
     let index = ds.split_frames(SplitName::Test);
     let views = views_of(ds, &index, &loc, photo_as)?;
     let estimates = loc.predict_batch(&views, mc)?;

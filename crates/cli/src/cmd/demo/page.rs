@@ -24,6 +24,10 @@ pub struct PageInput<'a> {
     pub uncertainty: &'a UncertaintyFigures,
     /// The network also predicts each image's error scale (part of sigma_pos_m).
     pub scale: bool,
+    /// The test frames were seen with test-time augmentation (its spread is part of sigma).
+    pub tta: bool,
+    /// The weights of sigma's parts (fitted on the validation walk).
+    pub weights: learn::checkpoint::SigmaWeights,
     /// How training went.
     pub summary: &'a TrainSummary,
     /// The walk with scene cuts through the temporal filter.
@@ -105,17 +109,31 @@ pub fn write(dir: &Path, input: &PageInput) -> Result<PathBuf> {
     )?;
 
     page.section("Uncertainty");
-    let source = if input.scale {
-        "the spread of Monte-Carlo dropout passes plus the error scale the network predicts \
-         for each image"
-    } else {
-        "the spread of Monte-Carlo dropout passes"
-    };
-    page.paragraph(format!(
-        "Each estimate's sigma_pos_m is {source} ({} passes per frame). Pearson R between \
-         sigma_pos_m and the position error: {:.2}. The 10 % of frames with the largest sigma \
-         have a median error of {:.3} m, the rest {:.3} m.",
+    let w = &input.weights;
+    let mut parts = vec![format!(
+        "the spread of {} Monte-Carlo dropout passes (weight {:.3})",
         r.first().map_or(0, |f| f.estimate.passes),
+        w.mc
+    )];
+    if input.tta {
+        parts.push(format!(
+            "the spread of the five test-time-augmented views (the frame and four copies \
+             shifted by a pixel; weight {:.3})",
+            w.tta
+        ));
+    }
+    if input.scale {
+        parts.push(format!(
+            "the error scale the network predicts for each image (weight {:.3})",
+            w.scale
+        ));
+    }
+    page.paragraph(format!(
+        "Each estimate's sigma_pos_m adds, as variances, {}; the weights were fitted on the \
+         validation walk when training ended. Pearson R between sigma_pos_m and the position \
+         error: {:.2}. The 10 % of frames with the largest sigma have a median error of \
+         {:.3} m, the rest {:.3} m.",
+        parts.join(", "),
         input.uncertainty.pearson_r,
         input.uncertainty.top10_median_m,
         input.uncertainty.rest_median_m

@@ -122,7 +122,7 @@ pub(crate) fn measure(
     })?;
     pb.finish_and_clear();
     let ds = NativeDataset::open(dir)?;
-    let results = demo::localize_test(&ds, model_dir, mc, plan.train_mode()?)?;
+    let results = demo::localize_test(&ds, model_dir, mc, true, plan.train_mode()?)?;
     let detection = scenecut::detect_input(
         dir,
         &scenecut::Config::default(),

@@ -123,6 +123,7 @@ pub fn run(args: &RenderTypesArgs) -> Result<()> {
             &ds,
             &prepared.model_dir,
             args.mc,
+            true,
             prepared.scene().train_mode()?,
         )?;
         ensure!(!results.is_empty(), "{mode}: the test walk has no frames");
