@@ -20,10 +20,10 @@ use imgproc::view::View;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
+use crate::Result;
 use crate::checkpoint::SigmaWeights;
 use crate::dataset::Samples;
 use crate::infer::{self, Localizer, Passes, SigmaParts};
-use crate::Result;
 
 /// MC passes and TTA of the calibration: the defaults of `localize` and `demo`.
 pub const CALIBRATION_MC: usize = 16;

@@ -138,7 +138,9 @@ impl SigmaWeights {
         if ok {
             Ok(())
         } else {
-            Err(format!("sigma weights {self:?} must be finite and not negative"))
+            Err(format!(
+                "sigma weights {self:?} must be finite and not negative"
+            ))
         }
     }
 }
@@ -196,7 +198,9 @@ impl ModelMeta {
         if !(0.0..1.0).contains(&self.dropout) {
             return Err(format!("dropout {} outside [0, 1)", self.dropout));
         }
-        self.sigma_weights.as_ref().map_or(Ok(()), SigmaWeights::check)
+        self.sigma_weights
+            .as_ref()
+            .map_or(Ok(()), SigmaWeights::check)
     }
 
     /// Writes `dir/model.toml` atomically.

@@ -251,7 +251,9 @@ impl ImageOutputs {
     /// The pose (see the module docs), its variance parts and the MC rotation spread (degrees).
     pub fn parts(&self, coding: &PoseCoding) -> (Pose, SigmaParts, f64) {
         let poses: Vec<Pose> = self.views.iter().map(|r| coding.decode(r)).collect();
-        let rotation = poses.first().map_or(Pose::identity().rotation, |p| p.rotation);
+        let rotation = poses
+            .first()
+            .map_or(Pose::identity().rotation, |p| p.rotation);
         let (mean, view_spread, _) = mean_pose(&poses);
         let (mc_spread, sigma_rot_deg) = if self.mc.len() > 1 {
             let samples: Vec<Pose> = self.mc.iter().map(|r| coding.decode(r)).collect();

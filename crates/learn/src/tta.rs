@@ -60,7 +60,9 @@ mod tests {
             channels: 1,
             width: w,
             height: h,
-            data: (0..w * h).map(|i| (i % w) as f32 + 100.0 * (i / w) as f32).collect(),
+            data: (0..w * h)
+                .map(|i| (i % w) as f32 + 100.0 * (i / w) as f32)
+                .collect(),
             norm: None,
         }
     }
@@ -79,7 +81,11 @@ mod tests {
         assert_eq!(all[1].data[10 * 80], v.data[10 * 80 + 1]);
         // Mirrored borders: no copy has a value the view's range does not hold.
         let (lo, hi) = (0.0, 79.0 + 100.0 * 59.0);
-        assert!(all.iter().flat_map(|c| &c.data).all(|&x| (lo..=hi).contains(&x)));
+        assert!(
+            all.iter()
+                .flat_map(|c| &c.data)
+                .all(|&x| (lo..=hi).contains(&x))
+        );
         Ok(())
     }
 

@@ -441,7 +441,11 @@ pub fn warp_view(view: &View, map: &Affine2, border: Border) -> Result<View> {
     }
     let inv = map.inverse()?;
     let mut data = vec![0f32; view.data.len()];
-    for (src, dst) in view.data.chunks_exact(plane).zip(data.chunks_exact_mut(plane)) {
+    for (src, dst) in view
+        .data
+        .chunks_exact(plane)
+        .zip(data.chunks_exact_mut(plane))
+    {
         let at = |x: i64, y: i64| -> f32 {
             let inside = x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h;
             match (inside, border) {
@@ -764,7 +768,6 @@ mod tests {
         assert_eq!(reflect101(5, 5), 3);
         assert_eq!(reflect101(-7, 1), 0);
     }
-
 
     #[test]
     fn view_warp_moves_float_planes() -> Result<()> {

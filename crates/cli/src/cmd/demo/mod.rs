@@ -446,7 +446,13 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     say("3/4 localizing the held-out test walk, and a walk with scene cuts through the filter");
     let t = Instant::now();
     let ds = NativeDataset::open(&data_dir)?;
-    let results = localize_test(&ds, &model_dir, args.mc, args.tta, setup.scene.train_mode()?)?;
+    let results = localize_test(
+        &ds,
+        &model_dir,
+        args.mc,
+        args.tta,
+        setup.scene.train_mode()?,
+    )?;
     let cuts = crate::cmd::study::cuts::measure(
         &setup.scene,
         &model_dir,
