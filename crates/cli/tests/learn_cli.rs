@@ -66,6 +66,8 @@ fn train_localize_eval_agree_on_the_validation_error() -> TestResult {
         "val",
         "--mc",
         "0",
+        "--tta",
+        "false",
         "--out",
         est.to_str().ok_or("path")?,
     ])?;
@@ -247,7 +249,7 @@ fn a_sequence_model_localizes_recordings_as_it_was_validated() -> TestResult {
     let sequence = median_of(&[])?;
     let want = stored("sequence").ok_or("sequence median")?;
     assert!((sequence - want).abs() < 1e-3, "{sequence} vs {want}");
-    let single = median_of(&["--single"])?;
+    let single = median_of(&["--single", "--tta", "false"])?;
     let want = t["val_median_pos_m"].as_f64().ok_or("median")?;
     assert!((single - want).abs() < 1e-3, "{single} vs {want}");
     Ok(())
