@@ -284,7 +284,8 @@ impl ImageOutputs {
 }
 
 /// [`image_outputs`] of views (each image's own; with TTA in `passes` its copies are made
-/// here), checked against the model's `input` shape (`view`: its view text, for errors).
+/// here, [`CHUNK`] images at a time so that memory stays that of the views), checked against
+/// the model's `input` shape (`view`: its view text, for errors).
 pub fn predict_outputs(
     net: &PoseNet,
     views: &[View],
@@ -294,17 +295,21 @@ pub fn predict_outputs(
     rng: &mut ChaCha8Rng,
     device: &Device,
 ) -> Result<Vec<ImageOutputs>> {
-    let inputs = if passes.views > 1 {
-        let copies = views
+    if passes.views <= 1 {
+        let inputs = pack_views(views, input, view)?;
+        return image_outputs(net, &inputs, input, passes, rng, device);
+    }
+    let mut out = Vec::with_capacity(views.len());
+    for chunk in views.chunks(CHUNK) {
+        let copies = chunk
             .iter()
             .map(tta::views)
             .collect::<Result<Vec<_>>>()?
             .concat();
-        pack_views(&copies, input, view)?
-    } else {
-        pack_views(views, input, view)?
-    };
-    image_outputs(net, &inputs, input, passes, rng, device)
+        let inputs = pack_views(&copies, input, view)?;
+        out.extend(image_outputs(net, &inputs, input, passes, rng, device)?);
+    }
+    Ok(out)
 }
 
 /// Outputs of `net` for packed inputs `[N · passes.views, C, H, W]`, one [`ImageOutputs`] per
