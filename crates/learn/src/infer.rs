@@ -354,7 +354,7 @@ pub fn image_outputs(
 }
 
 /// The rows of a network output `[B, O]`.
-fn rows_of(y: Tensor<2>) -> Result<Vec<Vec<f32>>> {
+pub(crate) fn rows_of(y: Tensor<2>) -> Result<Vec<Vec<f32>>> {
     let [_, o] = y.dims();
     let values = y
         .into_data()

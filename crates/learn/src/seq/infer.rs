@@ -205,16 +205,6 @@ impl SeqTracker<'_> {
     }
 }
 
-/// The rows of a `[R, O]` output.
-fn rows_of(out: Tensor<2>) -> Result<Vec<Vec<f32>>> {
-    let [_, o] = out.dims();
-    let values = out
-        .into_data()
-        .try_to_vec::<f32>()
-        .map_err(|e| LearnError::Input(format!("cannot read the outputs: {e:?}")))?;
-    Ok(values.chunks_exact(o).map(<[f32]>::to_vec).collect())
-}
-
 /// Outputs of the head over one run of `T` frames' features (`T · width` values): `passes`
 /// streams, each frame's features masked with probability `p` per pass; rows frame-major
 /// (`T · passes` rows, frame `t`'s passes together), as [`infer::estimates`] takes them.
@@ -251,5 +241,5 @@ pub(super) fn run_outputs(
     let [_, _, o] = out.dims();
     // [passes, T, O] -> [T, passes, O]
     let out = out.swap_dims(0, 1).reshape([t * passes, o]);
-    rows_of(out)
+    infer::rows_of(out)
 }
