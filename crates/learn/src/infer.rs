@@ -30,8 +30,6 @@ use geom::{Pose, Pose3};
 use image::DynamicImage;
 use imgproc::view::{View, ViewSpec};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 
 use crate::checkpoint::{self, MODEL_BPK, ModelMeta, SigmaWeights};
 use crate::head::{PoseCoding, Task};
@@ -162,14 +160,12 @@ impl Localizer {
 
     /// Poses of many views, run in batches of [`CHUNK`] images.
     pub fn predict_batch(&self, views: &[View], mc_passes: usize) -> Result<Vec<Estimate>> {
-        let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
         let outputs = predict_outputs(
             &self.net,
             views,
             self.meta.input,
             &self.meta.view,
-            Passes::new(self.tta, mc_passes, self.meta.dropout),
-            &mut rng,
+            Passes::new(self.tta, mc_passes, self.meta.dropout, self.seed),
             &self.device,
         )?;
         let weights = self.meta.sigma_weights();
@@ -198,7 +194,8 @@ pub(crate) fn pack_views(views: &[View], input: [usize; 3], view: &str) -> Resul
 }
 
 /// How many rows each image gives: `views` plain passes (the image's view, then its TTA
-/// copies) and `mc` Monte-Carlo passes of its own view with dropout `p` (none for `mc` < 2).
+/// copies) and `mc` Monte-Carlo passes of its own view with dropout `p` (none for `mc` < 2),
+/// through the ensemble of masks drawn from `seed` ([`mc::ensemble_masks`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Passes {
     /// Views per image, the image's own first.
@@ -207,6 +204,8 @@ pub struct Passes {
     pub mc: usize,
     /// Dropout probability of the MC passes.
     pub p: f64,
+    /// Seed of the MC passes' masks.
+    pub seed: u64,
 }
 
 impl Passes {
@@ -215,14 +214,17 @@ impl Passes {
         views: 1,
         mc: 0,
         p: 0.0,
+        seed: 0,
     };
 
-    /// With or without TTA, `mc` MC passes (fewer than 2, or `p` = 0: none) at dropout `p`.
-    pub fn new(tta: bool, mc: usize, p: f64) -> Passes {
+    /// With or without TTA, `mc` MC passes (fewer than 2, or `p` = 0: none) at dropout `p`,
+    /// masks drawn from `seed`.
+    pub fn new(tta: bool, mc: usize, p: f64, seed: u64) -> Passes {
         Passes {
             views: if tta { tta::TTA_VIEWS } else { 1 },
             mc: if mc > 1 && p > 0.0 { mc } else { 0 },
             p,
+            seed,
         }
     }
 }
@@ -292,12 +294,11 @@ pub fn predict_outputs(
     input: [usize; 3],
     view: &str,
     passes: Passes,
-    rng: &mut ChaCha8Rng,
     device: &Device,
 ) -> Result<Vec<ImageOutputs>> {
     if passes.views <= 1 {
         let inputs = pack_views(views, input, view)?;
-        return image_outputs(net, &inputs, input, passes, rng, device);
+        return image_outputs(net, &inputs, input, passes, device);
     }
     let mut out = Vec::with_capacity(views.len());
     for chunk in views.chunks(CHUNK) {
@@ -307,21 +308,20 @@ pub fn predict_outputs(
             .collect::<Result<Vec<_>>>()?
             .concat();
         let inputs = pack_views(&copies, input, view)?;
-        out.extend(image_outputs(net, &inputs, input, passes, rng, device)?);
+        out.extend(image_outputs(net, &inputs, input, passes, device)?);
     }
     Ok(out)
 }
 
 /// Outputs of `net` for packed inputs `[N · passes.views, C, H, W]`, one [`ImageOutputs`] per
 /// image. The backbone runs once per view; the MC passes reuse the image's own view's pooled
-/// features, repeated and masked (masks drawn image by image, so that an image's passes do not
-/// depend on the rest of its batch).
+/// features, repeated and masked by the ensemble of `passes.seed`, the same for every image
+/// ([`mc::ensemble_masks`]).
 pub fn image_outputs(
     net: &PoseNet,
     inputs: &[f32],
     [c, h, w]: [usize; 3],
     passes: Passes,
-    rng: &mut ChaCha8Rng,
     device: &Device,
 ) -> Result<Vec<ImageOutputs>> {
     let per_view = c * h * w;
@@ -333,11 +333,11 @@ pub fn image_outputs(
         let data = inputs[start * k * per_view..(start + b) * k * per_view].to_vec();
         let x = Tensor::<4>::from_data(TensorData::new(data, [b * k, c, h, w]), device);
         let features = net.features(x);
-        let plain = rows_of(net.head(features.clone(), 0.0, 1, rng))?;
+        let plain = rows_of(net.head_plain(features.clone()))?;
         let mc = if passes.mc > 1 && passes.p > 0.0 {
             let [_, f] = features.dims();
             let own = features.reshape([b, k, f]).narrow(1, 0, 1).reshape([b, f]);
-            rows_of(mc::mc_head(net, own, passes.mc, passes.p, rng))?
+            rows_of(mc::mc_head(net, own, passes.mc, passes.p, passes.seed))?
         } else {
             Vec::new()
         };

@@ -361,16 +361,8 @@ pub fn evaluate(
     samples: &Samples,
     device: &Device,
 ) -> Result<(f64, f64, f64)> {
-    let mut rng = ChaCha8Rng::seed_from_u64(0);
     let input = [samples.channels, samples.height, samples.width];
-    let outputs = infer::image_outputs(
-        net,
-        &samples.inputs,
-        input,
-        infer::Passes::PLAIN,
-        &mut rng,
-        device,
-    )?;
+    let outputs = infer::image_outputs(net, &samples.inputs, input, infer::Passes::PLAIN, device)?;
     let poses: Vec<_> = outputs.iter().map(|o| o.parts(coding).0).collect();
     let pos: Vec<f64> = poses
         .iter()

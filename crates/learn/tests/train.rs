@@ -254,10 +254,22 @@ fn mc_dropout_gives_uncertainty_deterministically_and_pose3_gives_level_ceiling_
         mc,
         "same seed, same estimate"
     );
+    // Every image goes through the same MC ensemble: its estimate does not depend on the other
+    // images of the batch or on its place among them.
     let view = loc.view(&img).unwrap();
-    let batch = loc.predict_batch(&[view.clone(), view], 16).unwrap();
-    assert_eq!(batch.len(), 2);
-    assert!((batch[0].sigma_pos_m - mc.sigma_pos_m).abs() < 1e-6);
+    let other = loc
+        .view(&image::open(data.join("frames/000001.png")).unwrap())
+        .unwrap();
+    let batch = loc
+        .predict_batch(&[view.clone(), other.clone(), view], 16)
+        .unwrap();
+    assert_eq!(batch.len(), 3);
+    for e in [&batch[0], &batch[2]] {
+        assert!((e.sigma_pos_m - mc.sigma_pos_m).abs() < 1e-6, "{e:?}");
+        assert!((e.sigma_rot_deg - mc.sigma_rot_deg).abs() < 1e-6, "{e:?}");
+    }
+    let alone = loc.predict_view(&other, 16).unwrap();
+    assert!((batch[1].sigma_pos_m - alone.sigma_pos_m).abs() < 1e-6);
     let other = Localizer::load(&out)
         .unwrap()
         .with_seed(99)

@@ -55,6 +55,10 @@ pub struct LocalizeArgs {
     /// `sigma_pos_m`, at five times the backbone's cost. Single-frame models only.
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set, value_name = "BOOL")]
     tta: bool,
+    /// Seed of the MC-dropout masks: every frame is seen through the same `--mc` thinned
+    /// networks drawn from it, so a frame's sigma does not depend on the frames around it.
+    #[arg(long, default_value_t = learn::infer::DEFAULT_MC_SEED, value_name = "SEED")]
+    mc_seed: u64,
     /// Output format.
     #[arg(long, value_enum, default_value_t = OutFormat::Jsonl)]
     format: OutFormat,
@@ -211,7 +215,7 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
         );
     }
     let sequence = if SeqMeta::exists(&args.model) && !args.single && !place_only {
-        Some(SeqLocalizer::load(&args.model)?)
+        Some(SeqLocalizer::load(&args.model)?.with_seed(args.mc_seed))
     } else {
         None
     };
@@ -219,7 +223,9 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
         Some(seq) => Some(Estimator::Sequence(seq, seq.tracker(args.mc))),
         None if place_only => None,
         None => Some(Estimator::Single(
-            Localizer::load(&args.model)?.with_tta(args.tta),
+            Localizer::load(&args.model)?
+                .with_tta(args.tta)
+                .with_seed(args.mc_seed),
         )),
     };
     let cuts = match &args.cuts {

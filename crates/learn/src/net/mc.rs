@@ -4,7 +4,7 @@
 //! generator, so training and MC inference are reproducible whatever else runs at the same time.
 
 use burn::tensor::{Device, Tensor, TensorData};
-use rand::Rng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::PoseNet;
@@ -20,57 +20,79 @@ pub fn dropout_mask(rows: usize, cols: usize, p: f64, rng: &mut ChaCha8Rng) -> V
         .collect()
 }
 
-/// One mask `[rows, width]` per layer width in `widths`, drawn `group` rows at a time: for each
-/// group, its rows of every layer, then the next group. With `group` = the Monte-Carlo passes
-/// per image, an image's masks are the same whatever else is in its batch.
-pub fn group_masks(
+/// One mask `[rows, width]` per layer width in `widths`, drawn row by row (each row's masks of
+/// every layer, then the next row's): training's dropout.
+pub fn row_masks(
     rows: usize,
-    group: usize,
     widths: &[usize],
     p: f64,
     rng: &mut ChaCha8Rng,
     device: &Device,
 ) -> Vec<Tensor<2>> {
-    let group = group.max(1);
     let mut values: Vec<Vec<f32>> = widths
         .iter()
         .map(|w| Vec::with_capacity(rows * w))
         .collect();
-    for start in (0..rows).step_by(group) {
-        let n = group.min(rows - start);
+    for _ in 0..rows {
         for (layer, &w) in values.iter_mut().zip(widths) {
-            layer.extend(dropout_mask(n, w, p, rng));
+            layer.extend(dropout_mask(1, w, p, rng));
         }
     }
+    to_tensors(values, widths, device)
+}
+
+/// The Monte-Carlo ensemble: one mask `[passes, width]` per layer width in `widths`, layer by
+/// layer from a generator seeded with `seed`. Every image is seen through these same
+/// `passes` thinned networks, so an image's sigma does not depend on the other images of its
+/// batch or on its place among them, and images are compared through the same networks
+/// (common random numbers: the spread of two images differs because the images do, not
+/// because their masks do).
+pub fn ensemble_masks(
+    passes: usize,
+    widths: &[usize],
+    p: f64,
+    seed: u64,
+    device: &Device,
+) -> Vec<Tensor<2>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let values = widths
+        .iter()
+        .map(|&w| dropout_mask(passes, w, p, &mut rng))
+        .collect();
+    to_tensors(values, widths, device)
+}
+
+fn to_tensors(values: Vec<Vec<f32>>, widths: &[usize], device: &Device) -> Vec<Tensor<2>> {
     values
         .into_iter()
         .zip(widths)
-        .map(|(v, &w)| Tensor::from_data(TensorData::new(v, [rows, w]), device))
+        .map(|(v, &w)| {
+            let rows = v.len() / w.max(1);
+            Tensor::from_data(TensorData::new(v, [rows, w]), device)
+        })
         .collect()
 }
 
 /// `passes` stochastic head outputs per row of pooled `features` `[B, F]`:
-/// `[B * passes, outputs]`, rows `b * passes .. (b + 1) * passes` belonging to image `b`. Only
-/// the features are repeated and sent through the masked head; the backbone ran once.
-pub fn mc_head(
-    net: &PoseNet,
-    features: Tensor<2>,
-    passes: usize,
-    p: f64,
-    rng: &mut ChaCha8Rng,
-) -> Tensor<2> {
+/// `[B * passes, outputs]`, rows `b * passes .. (b + 1) * passes` belonging to image `b`, seen
+/// through the ensemble of `seed` ([`ensemble_masks`]). Only the features are repeated and
+/// sent through the masked head; the backbone ran once.
+pub fn mc_head(net: &PoseNet, features: Tensor<2>, passes: usize, p: f64, seed: u64) -> Tensor<2> {
     let [b, f] = features.dims();
     let repeated = features
         .unsqueeze_dim::<3>(1)
         .repeat_dim(1, passes)
         .reshape([b * passes, f]);
-    net.head(repeated, p, passes, rng)
+    let masks = ensemble_masks(passes, &net.mask_widths(f), p, seed, &repeated.device())
+        .into_iter()
+        .map(|m| m.repeat_dim(0, b))
+        .collect();
+    net.head_masked(repeated, masks)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::SeedableRng;
 
     #[test]
     fn masks_keep_the_expected_value() {

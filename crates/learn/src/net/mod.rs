@@ -534,7 +534,7 @@ impl PoseNet {
         if let Some(rotation) = &self.rotation {
             parts.push(rotation.parts().features(x));
         }
-        self.head_masked(Tensor::cat(parts, 1), Vec::new())
+        self.head_plain(Tensor::cat(parts, 1))
     }
 
     /// The first network's hidden layer (if any) and output layer.
@@ -549,29 +549,32 @@ impl PoseNet {
     }
 
     /// The head applied to features `[B, F] -> [B, outputs]`, with dropout of probability `p`
-    /// on the features and on the hidden layers; `p = 0` draws nothing. Masks are drawn from
-    /// `rng` for `group` consecutive rows at a time, every layer's rows of one group before the
-    /// next group's (see [`mc::group_masks`]), so that an image's Monte-Carlo passes do not
-    /// depend on the other images of its batch.
-    pub fn head(
-        &self,
-        features: Tensor<2>,
-        p: f64,
-        group: usize,
-        rng: &mut ChaCha8Rng,
-    ) -> Tensor<2> {
+    /// on the features and on the hidden layers, masks drawn from `rng` row by row
+    /// ([`mc::row_masks`]); `p = 0` draws nothing.
+    pub fn head(&self, features: Tensor<2>, p: f64, rng: &mut ChaCha8Rng) -> Tensor<2> {
         let [rows, width] = features.dims();
         if p <= 0.0 {
-            return self.head_masked(features, Vec::new());
+            return self.head_plain(features);
         }
-        let mut widths = vec![width];
-        widths.extend(self.branches().filter_map(|b| b.hidden_width()));
-        let masks = mc::group_masks(rows, group, &widths, p, rng, &features.device());
+        let masks = mc::row_masks(rows, &self.mask_widths(width), p, rng, &features.device());
         self.head_masked(features, masks)
     }
 
+    /// The head without dropout.
+    pub fn head_plain(&self, features: Tensor<2>) -> Tensor<2> {
+        self.head_masked(features, Vec::new())
+    }
+
+    /// Widths of the head's dropout masks for features `width` wide: the features', then each
+    /// hidden layer's.
+    pub(crate) fn mask_widths(&self, width: usize) -> Vec<usize> {
+        let mut widths = vec![width];
+        widths.extend(self.branches().filter_map(|b| b.hidden_width()));
+        widths
+    }
+
     /// The head with `masks` (none, or one for the features then one per hidden layer).
-    fn head_masked(&self, features: Tensor<2>, masks: Vec<Tensor<2>>) -> Tensor<2> {
+    pub(crate) fn head_masked(&self, features: Tensor<2>, masks: Vec<Tensor<2>>) -> Tensor<2> {
         let mut masks = masks.into_iter();
         let features = match masks.next() {
             Some(mask) => features * mask,
@@ -598,13 +601,13 @@ impl PoseNet {
 
     /// Outputs without dropout, `[B, C, H, W] -> [B, outputs]`.
     pub fn forward(&self, x: Tensor<4>) -> Tensor<2> {
-        self.head_masked(self.features(x), Vec::new())
+        self.head_plain(self.features(x))
     }
 
     /// Outputs with dropout of probability `p` in the head, masks drawn row by row (see
     /// [`PoseNet::head`]).
     pub fn forward_dropout(&self, x: Tensor<4>, p: f64, rng: &mut ChaCha8Rng) -> Tensor<2> {
-        self.head(self.features(x), p, 1, rng)
+        self.head(self.features(x), p, rng)
     }
 
     /// [`PoseNet::forward_dropout`] and the plane branch's outputs (none without a branch),
@@ -616,7 +619,7 @@ impl PoseNet {
         rng: &mut ChaCha8Rng,
     ) -> (Tensor<2>, Option<PlaneOutputs>) {
         let (features, planes) = self.features_and_planes(x, true);
-        (self.head(features, p, 1, rng), planes)
+        (self.head(features, p, rng), planes)
     }
 
     /// The plane branch's outputs of a batch (none without a branch).
@@ -778,9 +781,8 @@ mod tests {
         let x = Tensor::zeros([2, 1, 32, 32], &device);
         assert_eq!(net.features(x.clone()).dims(), [2, 2 * 256]);
         assert_eq!(net.forward(x.clone()).dims(), [2, 5]);
-        let mut rng = <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1);
         let features = net.features(x);
-        assert_eq!(mc::mc_head(&net, features, 3, 0.2, &mut rng).dims(), [6, 5]);
+        assert_eq!(mc::mc_head(&net, features, 3, 0.2, 1).dims(), [6, 5]);
         assert!(config(Arch::Small, 2).init(&device, 0).is_err());
         Ok(())
     }

@@ -151,6 +151,12 @@ impl SeqLocalizer {
         }
     }
 
+    /// The same localizer with another seed for the MC dropout masks.
+    pub fn with_seed(mut self, seed: u64) -> SeqLocalizer {
+        self.base = self.base.with_seed(seed);
+        self
+    }
+
     fn device(&self) -> &Device {
         self.base.device()
     }
