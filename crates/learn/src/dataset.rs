@@ -229,8 +229,8 @@ pub fn load(root: &Path, spec: &ViewSpec, seed: u64) -> Result<TrainData> {
         hash.update(format!("{:?}", shot.frame).as_bytes());
     }
     hash.update(format!("{splits:?}").as_bytes());
-    let (train, train_hash) = make_samples(&train, spec)?;
-    let (val, val_hash) = make_samples(&val, spec)?;
+    let (train, train_hash) = make_samples(root, &train, spec)?;
+    let (val, val_hash) = make_samples(root, &val, spec)?;
     if (train.channels, train.width, train.height) != (val.channels, val.width, val.height) {
         return Err(LearnError::Input(format!(
             "{}: validation views are {}x{}x{} but training views {}x{}x{}",
@@ -252,6 +252,37 @@ pub fn load(root: &Path, spec: &ViewSpec, seed: u64) -> Result<TrainData> {
         val,
         hash: hash.hex(),
     })
+}
+
+/// Refuses `frames` views of `per_view` values each (`f32`) when they need more than
+/// `available` bytes: the process would be killed for memory part-way through, with nothing
+/// said. `None` (memory unknown) lets everything through.
+fn check_memory(
+    frames: usize,
+    per_view: usize,
+    available: Option<u64>,
+) -> std::result::Result<(), String> {
+    let need = (frames as u64)
+        .saturating_mul(per_view as u64)
+        .saturating_mul(std::mem::size_of::<f32>() as u64);
+    match available {
+        Some(free) if need > free => Err(format!(
+            "{frames} views of {per_view} values need {:.1} GB of memory and {:.1} GB is \
+             available: train on fewer frames or with a smaller view",
+            need as f64 / 1e9,
+            free as f64 / 1e9
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Memory available to new allocations (`MemAvailable` of `/proc/meminfo`), bytes; `None`
+/// where that is not known.
+fn available_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
 }
 
 /// The image file of a frame: `frames/<name>.png`, the name read as a frame number.
@@ -284,39 +315,64 @@ fn view_of(path: &Path, spec: &ViewSpec) -> Result<(View, u64)> {
     Ok((view, h.finish()))
 }
 
-/// Views of `frames` (in parallel) and a hash of their image bytes (in order).
-fn make_samples(shots: &[Shot], spec: &ViewSpec) -> Result<(Samples, u64)> {
-    let views = shots
-        .par_iter()
-        .map(|s| view_of(&s.path, spec))
-        .collect::<Result<Vec<_>>>()?;
-    let (c, w, h) = match views.first() {
-        Some((v, _)) => (v.channels, v.width, v.height),
-        None => return Ok((Samples::default(), 0)),
+/// Views are made this many frames at a time, so that memory peaks at the samples plus one
+/// chunk of views rather than at twice the samples.
+const VIEW_CHUNK: usize = 512;
+
+/// Views of the frames of the dataset at `root` (in parallel, a chunk at a time) and a hash of their image bytes (in
+/// order). Refused before any work when the views would not fit in the memory available.
+fn make_samples(root: &Path, shots: &[Shot], spec: &ViewSpec) -> Result<(Samples, u64)> {
+    let Some(first) = shots.first() else {
+        return Ok((Samples::default(), 0));
     };
+    let (view, _) = view_of(&first.path, spec)?;
+    let (c, w, h) = (view.channels, view.width, view.height);
+    check_memory(shots.len(), view.data.len(), available_memory())
+        .map_err(|msg| LearnError::Input(format!("{}: {msg}", root.display())))?;
     let mut samples = Samples {
         channels: c as usize,
         width: w as usize,
         height: h as usize,
-        inputs: Vec::with_capacity(views.len() * (c * w * h) as usize),
-        poses: Vec::with_capacity(views.len()),
-        names: Vec::with_capacity(views.len()),
+        inputs: Vec::with_capacity(shots.len() * view.data.len()),
+        poses: Vec::with_capacity(shots.len()),
+        names: Vec::with_capacity(shots.len()),
     };
     let mut hash = Fnv64::new();
-    for ((view, image_hash), Shot { frame, path }) in views.into_iter().zip(shots) {
-        if (view.channels, view.width, view.height) != (c, w, h) {
-            return Err(LearnError::Image {
-                path: path.clone(),
-                msg: format!(
-                    "view is {}x{}x{}, the first frame's is {c}x{h}x{w} (images of one size needed)",
-                    view.channels, view.height, view.width
-                ),
-            });
+    for chunk in shots.chunks(VIEW_CHUNK) {
+        let views = chunk
+            .par_iter()
+            .map(|s| view_of(&s.path, spec))
+            .collect::<Result<Vec<_>>>()?;
+        for ((view, image_hash), Shot { frame, path }) in views.into_iter().zip(chunk) {
+            if (view.channels, view.width, view.height) != (c, w, h) {
+                return Err(LearnError::Image {
+                    path: path.clone(),
+                    msg: format!(
+                        "view is {}x{}x{}, the first frame's is {c}x{h}x{w} (images of one size needed)",
+                        view.channels, view.height, view.width
+                    ),
+                });
+            }
+            hash.update(&image_hash.to_le_bytes());
+            samples.inputs.extend_from_slice(&view.data);
+            samples.poses.push(frame.pose);
+            samples.names.push(format!("{}/{}", frame.seq, frame.name));
         }
-        hash.update(&image_hash.to_le_bytes());
-        samples.inputs.extend_from_slice(&view.data);
-        samples.poses.push(frame.pose);
-        samples.names.push(format!("{}/{}", frame.seq, frame.name));
     }
     Ok((samples, hash.finish()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn views_that_do_not_fit_in_memory_are_refused_before_any_work() {
+        // 38400 views of 3x240x240: 26.5 GB.
+        let e = check_memory(38400, 3 * 240 * 240, Some(24_000_000_000)).unwrap_err();
+        assert!(e.contains("26.5 GB"), "{e}");
+        assert!(check_memory(38400, 3 * 48 * 64, Some(24_000_000_000)).is_ok());
+        assert!(check_memory(usize::MAX, usize::MAX, None).is_ok());
+        assert!(available_memory().is_none_or(|b| b > 0));
+    }
 }
