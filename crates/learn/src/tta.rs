@@ -4,12 +4,12 @@
 //! so every copy's position estimate answers the same question; their mean is a better
 //! position, and how far they disagree is how much the answer hangs on details of the image.
 //!
-//! Measured on the full ceiling demo's held-out walk (600 frames, no MC passes): median position
-//! error 0.166 m for the view alone, 0.155 m for the mean of the five; with the spread weighed
-//! in by [`crate::calibrate`], the 10 % of frames with the largest sigma had 2.1x the median
-//! error of the rest, against 1.6x for the per-image scale alone. Copies turned by ±3° about the
-//! centre ranked errors better still (3.5x) but cost accuracy (0.174 m): bilinear resampling
-//! blurs an 80x60 view, and whole-pixel shifts resample nothing.
+//! Measured on the full ceiling demo's held-out walk (600 frames): median position error
+//! 0.166 m for the view alone, 0.155 m for the mean of the five. Ranking frames by sigma, the
+//! 10 % with the largest had 2.07x the median error of the rest with the TTA spread alone,
+//! 1.82x with the per-image scale alone and 2.24x with the two weighed as [`crate::calibrate`]
+//! fitted them. Copies turned by ±3° about the centre cost accuracy (0.174 m averaged in):
+//! bilinear resampling blurs an 80x60 view, and whole-pixel shifts resample nothing.
 //!
 //! The copies border on a mirror of the view (a one-pixel strip), not on black: the network
 //! never saw black edges in training.
