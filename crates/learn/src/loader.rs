@@ -1,5 +1,6 @@
 //! Training batches, assembled on a worker thread while the previous step trains, optionally
-//! restyled ([`style_view`], shape-biased training) and jittered ([`jitter_view`]), with the
+//! reframed ([`reframe_view`], place training only), restyled ([`style_view`], shape-biased
+//! training) and jittered ([`jitter_view`]), with the
 //! plane targets of their frames when the network has a plane branch.
 //!
 //! The jitter works on the views already in memory (after grey conversion, resizing, CLAHE and
@@ -7,7 +8,8 @@
 //! training does not keep (40 000 frames would be gigabytes). What can be done to a finished
 //! view is photometric — contrast and brightness about the view's own mean and spread, sensor
 //! noise, and occluding rectangles — which keeps every pose label true and works whatever the
-//! view's normalisation. Geometric jitter would falsify 6-DoF labels and is left out.
+//! view's normalisation. Geometric jitter would falsify 6-DoF labels and is left out of pose
+//! training; place labels survive a small zoom and shift ([`reframe_view`]).
 //!
 //! The style randomisation of shape-biased training (`imgproc::augment::style_randomize`:
 //! random monotone tone curves, possibly inverted, a material texture, coloured light that
@@ -56,6 +58,9 @@ pub struct Augment {
     pub jitter: bool,
     /// Style randomisation ([`style_view`]), before the jitter.
     pub style: bool,
+    /// A small random zoom and shift ([`reframe_view`]), first: only for labels that a turn
+    /// of a few degrees or a step forward leaves true (places, not poses).
+    pub reframe: bool,
 }
 
 /// What [`spawn`] reads.
@@ -108,6 +113,9 @@ fn produce(
             inputs.extend_from_slice(samples.input(i));
             if let Some(aug) = augment.as_mut() {
                 let view = &mut inputs[start..];
+                if aug.reframe {
+                    reframe_view(view, c, h, w, &mut aug.rng);
+                }
                 if aug.style && aug.rng.random::<f64>() < STYLE_PROBABILITY {
                     style_view(view, c, h, w, &mut aug.rng);
                 }
@@ -169,6 +177,59 @@ pub fn jitter_view(
             for y in y0..y0 + h {
                 let row = (c * height + y) * width;
                 view[row + x0..row + x0 + w].fill(mean as f32);
+            }
+        }
+    }
+}
+
+/// Largest zoom of [`reframe_view`], as a fraction of the view's size either way.
+const REFRAME_ZOOM: f64 = 0.1;
+
+/// Largest shift of [`reframe_view`], as a fraction of the view's width and height.
+const REFRAME_SHIFT: f64 = 0.08;
+
+/// Reframes one view `[C, H, W]` in place: zoomed by a factor in `1 ± REFRAME_ZOOM` about its
+/// centre and shifted by up to `REFRAME_SHIFT` of its size, resampled bilinearly, the border
+/// repeated where the new frame reaches past the old. To the network this is the camera a step
+/// nearer or further and turned a few degrees (at 64x48 and a 59° field of view, a shift of
+/// 5 pixels is about 4.6°): new viewpoints between the rendered ones, without the memory of
+/// more frames. Place labels stay true; pose labels would not, so pose training never asks.
+///
+/// Written here rather than with `fast_image_resize` or `imgproc`: those work on `u8` images,
+/// and the view is already normalised `f32` (see the module docs).
+pub fn reframe_view(
+    view: &mut [f32],
+    channels: usize,
+    height: usize,
+    width: usize,
+    rng: &mut ChaCha8Rng,
+) {
+    if height < 2 || width < 2 || view.len() != channels * height * width {
+        return;
+    }
+    let zoom = 1.0 + rng.random_range(-REFRAME_ZOOM..REFRAME_ZOOM);
+    let dx = rng.random_range(-REFRAME_SHIFT..REFRAME_SHIFT) * width as f64;
+    let dy = rng.random_range(-REFRAME_SHIFT..REFRAME_SHIFT) * height as f64;
+    let (cx, cy) = ((width - 1) as f64 / 2.0, (height - 1) as f64 / 2.0);
+    // Source coordinate of each output column and row, split into a cell and a weight.
+    let sample = |out: usize, centre: f64, shift: f64, len: usize| {
+        let at = ((out as f64 - centre) / zoom + centre + shift).clamp(0.0, (len - 1) as f64);
+        let lo = (at.floor() as usize).min(len - 2);
+        (lo, (at - lo as f64) as f32)
+    };
+    let cols: Vec<(usize, f32)> = (0..width).map(|x| sample(x, cx, dx, width)).collect();
+    let rows: Vec<(usize, f32)> = (0..height).map(|y| sample(y, cy, dy, height)).collect();
+    let plane = height * width;
+    let mut source = vec![0.0f32; plane];
+    for c in 0..channels {
+        let channel = &mut view[c * plane..(c + 1) * plane];
+        source.copy_from_slice(channel);
+        for (y, &(y0, fy)) in rows.iter().enumerate() {
+            let (top, bottom) = (&source[y0 * width..], &source[(y0 + 1) * width..]);
+            for (x, &(x0, fx)) in cols.iter().enumerate() {
+                let upper = top[x0] + fx * (top[x0 + 1] - top[x0]);
+                let lower = bottom[x0] + fx * (bottom[x0 + 1] - bottom[x0]);
+                channel[y * width + x] = upper + fy * (lower - upper);
             }
         }
     }
@@ -275,6 +336,47 @@ mod tests {
             mean(&view)
         );
         assert!(a.iter().all(|v| v.is_finite()));
+    }
+
+    #[test]
+    fn reframing_zooms_and_shifts_within_bounds() {
+        let (c, h, w) = (2, 24, 32);
+        // Channel 0 rises along x, channel 1 along y: a zoom and shift keeps each a plane whose
+        // slope is the original over the zoom, wherever the frame stays inside the old one.
+        let view: Vec<f32> = (0..c * h * w)
+            .map(|i| {
+                let (ch, y, x) = (i / (h * w), (i / w) % h, i % w);
+                if ch == 0 { x as f32 } else { y as f32 }
+            })
+            .collect();
+        let mut a = view.clone();
+        reframe_view(&mut a, c, h, w, &mut jitter_rng(3, 1));
+        let mut b = view.clone();
+        reframe_view(&mut b, c, h, w, &mut jitter_rng(3, 1));
+        assert_eq!(a, b, "same seed, same frame");
+        assert_ne!(a, view);
+        let (lo, hi) = (
+            1.0 / (1.0 + REFRAME_ZOOM) - 1e-4,
+            1.0 / (1.0 - REFRAME_ZOOM) + 1e-4,
+        );
+        let mid = h / 2 * w;
+        let slopes: Vec<f64> = (1..w)
+            .map(|x| f64::from(a[mid + x] - a[mid + x - 1]))
+            .filter(|&d| d > 0.0)
+            .collect();
+        // Columns clamped at the border repeat it (slope 0); the others share one slope.
+        assert!(slopes.len() > w / 2, "{slopes:?}");
+        for s in &slopes[1..slopes.len() - 1] {
+            assert!((lo..=hi).contains(s), "slope {s} outside 1/(1 ± zoom)");
+        }
+        // The centre moved by at most the largest shift (plus the zoom's rounding).
+        let centre = f64::from(a[mid + w / 2]);
+        assert!((centre - w as f64 / 2.0).abs() <= REFRAME_SHIFT * w as f64 + 2.0);
+        // Interpolation never leaves the original range, and a flat view stays flat.
+        assert!(a.iter().all(|&v| (0.0..=(w - 1) as f32).contains(&v)));
+        let mut flat = vec![0.25f32; c * h * w];
+        reframe_view(&mut flat, c, h, w, &mut jitter_rng(3, 2));
+        assert!(flat.iter().all(|&v| (v - 0.25).abs() < 1e-6));
     }
 
     #[test]

@@ -590,6 +590,7 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
             rng: loader::jitter_rng(cfg.seed, epoch),
             jitter: cfg.augment,
             style: cfg.shape_bias,
+            reframe: false,
         });
         std::thread::scope(|scope| -> Result<()> {
             let source = loader::Source {

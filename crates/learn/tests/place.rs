@@ -164,3 +164,53 @@ fn a_model_from_before_the_pooling_grid_reads_as_global_pooling() {
     let after = PlaceLocalizer::load(&out).unwrap().predict(&img).unwrap();
     assert_eq!(before, after);
 }
+
+/// Two buildings, B0 with floors F0 and F1, B1 with F0; places under them.
+fn classes() -> learn::place::PlaceClasses {
+    let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect();
+    learn::place::PlaceClasses {
+        building: names(&["B0", "B1"]),
+        floor: names(&["B0/F0", "B0/F1", "B1/F0"]),
+        corridor: names(&[
+            "B0/F0/C0/fwd",
+            "B0/F1/C0/fwd",
+            "B0/F1/none/none",
+            "B1/F0/C1/back",
+        ]),
+    }
+}
+
+#[test]
+fn the_heads_are_decoded_as_one_consistent_place() {
+    let classes = classes();
+    let tree = classes.tree().unwrap();
+    assert_eq!(tree, vec![[0, 0], [0, 1], [0, 1], [1, 2]]);
+    // The place head leans to B0/F0/C0 (0.40 against 0.35), but the floor head is sure of
+    // B0/F1: together they choose B0/F1/C0, which the place head alone would have missed.
+    let building = [0.9, 0.1];
+    let floor = [0.1, 0.8, 0.1];
+    let place = [0.40, 0.35, 0.05, 0.20];
+    let [b, f, p] = learn::place::joint([&building, &floor, &place], &tree);
+    assert_eq!((b.0, f.0, p.0), (0, 1, 1));
+    // The probabilities are the product's posterior: nested, and a place's floor and building
+    // hold at least its own mass.
+    let score = |i: usize| {
+        let [bi, fi] = tree[i];
+        building[bi] * floor[fi] * place[i]
+    };
+    let total: f32 = (0..4).map(score).sum();
+    assert!((p.1 - score(1) / total).abs() < 1e-5, "{p:?}");
+    assert!((f.1 - (score(1) + score(2)) / total).abs() < 1e-5, "{f:?}");
+    assert!(b.1 >= f.1 && f.1 >= p.1 && b.1 <= 1.0 + 1e-6);
+    // A head that gives a class zero probability rules it out, without NaNs.
+    let [_, _, p] = learn::place::joint([&[0.0, 1.0], &[0.0, 0.0, 1.0], &place], &tree);
+    assert_eq!(p.0, 3);
+    assert!(p.1.is_finite() && p.1 > 0.99, "{p:?}");
+}
+
+#[test]
+fn a_place_outside_the_floor_lists_leaves_the_heads_independent() {
+    let mut classes = classes();
+    classes.corridor.push("B2/F0/C9/fwd".into());
+    assert_eq!(classes.tree(), None);
+}

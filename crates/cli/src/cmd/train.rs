@@ -113,6 +113,11 @@ pub struct TrainArgs {
     /// material texture, coloured light; edges kept) so the network learns shape, not paint.
     #[arg(long)]
     shape_bias: bool,
+    /// Place classifier only: zoom (±10 %) and shift (±8 %) each training view a little, as if
+    /// the camera stood a step nearer or had turned a few degrees; a pose label would no longer
+    /// be true, a place label is.
+    #[arg(long)]
+    reframe: bool,
     /// Train a dominant-plane branch beside the pose (classes, plane parameters and the depth
     /// they induce); needs `depth/` for every frame, and uses `planes/` when there (else the
     /// planes are found in the depth by RANSAC).
@@ -243,6 +248,7 @@ pub fn place_config(args: &TrainArgs) -> Result<PlaceConfig> {
     cfg.split = args.place_split.parse()?;
     cfg.augment = args.augment;
     cfg.shape_bias = args.shape_bias;
+    cfg.reframe = args.reframe;
     cfg.grid = args.place_grid;
     cfg.patience = Some(args.patience);
     cfg.seed = args.seed;
@@ -346,6 +352,11 @@ pub fn run(args: &TrainArgs) -> Result<()> {
     if args.task == Some(TaskArg::Place) {
         return run_place(args);
     }
+    anyhow::ensure!(
+        !args.reframe,
+        "--reframe is for a place classifier (--task place): a zoomed or shifted view no longer \
+         shows the pose of its label"
+    );
     let start = Instant::now();
     let summary = train_with_progress(&args.config(), !args.json)?;
     let sequence = match args.seq_config() {
@@ -490,5 +501,17 @@ mod tests {
         );
         let cfg = parse(&["--window", "4", "--seq-beta", "50"]).seq_config();
         assert_eq!(cfg.and_then(|c| c.beta), Some(50.0));
+    }
+
+    #[test]
+    fn reframing_is_for_places_only() {
+        let place = place_config(&parse(&["--task", "place", "--reframe"])).unwrap();
+        assert!(place.reframe);
+        assert!(!place_config(&parse(&["--task", "place"])).unwrap().reframe);
+        let err = run(&parse(&["--reframe"])).unwrap_err();
+        assert!(
+            err.to_string().contains("--reframe is for a place"),
+            "{err}"
+        );
     }
 }

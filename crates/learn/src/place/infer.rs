@@ -1,5 +1,6 @@
 //! Place inference: [`PlaceLocalizer`] turns images into the most likely building, floor and
-//! corridor with their probabilities (softmax of each head).
+//! corridor with their probabilities, the three heads decoded together ([`super::joint`]) so
+//! that the answer is one consistent place.
 
 use std::path::Path;
 
@@ -9,7 +10,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 use image::DynamicImage;
 use imgproc::view::{View, ViewSpec};
 
-use super::{PLACE_BPK, PLACE_TOML, PlaceMeta, PlaceNet};
+use super::{PLACE_BPK, PLACE_TOML, PlaceMeta, PlaceNet, joint};
 use crate::checkpoint;
 use crate::infer::{CHUNK, pack_views};
 use crate::{LearnError, Result};
@@ -92,35 +93,44 @@ impl PlaceLocalizer {
     pub fn predict_batch(&self, views: &[View]) -> Result<Vec<PlacePrediction>> {
         let inputs = pack_views(views, self.meta.input, &self.meta.view)?;
         let levels = self.meta.classes.levels();
-        Ok(classify(&self.net, &inputs, self.meta.input, &self.device)?
-            .into_iter()
-            .map(|p| {
-                let named = |level: usize| {
-                    let (k, prob) = p[level];
-                    (levels[level][k].clone(), prob as f64)
-                };
-                PlacePrediction {
-                    building: named(0),
-                    floor: named(1),
-                    corridor: named(2),
-                    indices: p.map(|(k, _)| k),
-                }
-            })
-            .collect())
+        let tree = self.meta.classes.tree();
+        Ok(classify(
+            &self.net,
+            &inputs,
+            self.meta.input,
+            tree.as_deref(),
+            &self.device,
+        )?
+        .into_iter()
+        .map(|p| {
+            let named = |level: usize| {
+                let (k, prob) = p[level];
+                (levels[level][k].clone(), prob as f64)
+            };
+            PlacePrediction {
+                building: named(0),
+                floor: named(1),
+                corridor: named(2),
+                indices: p.map(|(k, _)| k),
+            }
+        })
+        .collect())
     }
 }
 
-/// The most likely class and its probability at each level, for packed inputs `[N, C, H, W]`
-/// run in chunks of [`CHUNK`].
+/// The place of each packed input `[N, C, H, W]` (run in chunks of [`CHUNK`]): the class and its
+/// probability at each level, decoded jointly by [`joint`] when `tree` is given, each head on
+/// its own otherwise.
 pub(super) fn classify(
     net: &PlaceNet,
     inputs: &[f32],
     [c, h, w]: [usize; 3],
+    tree: Option<&[[usize; 2]]>,
     device: &Device,
 ) -> Result<Vec<[(usize, f32); 3]>> {
     let per = c * h * w;
     let n = inputs.len() / per.max(1);
-    let mut out = vec![[(0usize, 0.0f32); 3]; n];
+    let mut out = Vec::with_capacity(n);
     for start in (0..n).step_by(CHUNK) {
         let b = CHUNK.min(n - start);
         let x = Tensor::<4>::from_data(
@@ -130,23 +140,34 @@ pub(super) fn classify(
             ),
             device,
         );
-        for (level, logits) in net.logits(net.features(x)).into_iter().enumerate() {
+        let mut probs: Vec<(Vec<f32>, usize)> = Vec::with_capacity(3);
+        for logits in net.logits(net.features(x)) {
             let [_, k] = logits.dims();
             let p = softmax(logits, 1)
                 .into_data()
                 .try_to_vec::<f32>()
                 .map_err(|e| LearnError::Input(format!("cannot read the outputs: {e:?}")))?;
-            for (row, probs) in p.chunks_exact(k).enumerate() {
-                let best = probs
-                    .iter()
-                    .enumerate()
-                    .fold(
-                        (0, f32::MIN),
-                        |acc, (i, &q)| if q > acc.1 { (i, q) } else { acc },
-                    );
-                out[start + row][level] = best;
-            }
+            probs.push((p, k));
+        }
+        for row in 0..b {
+            let level = |l: usize| {
+                let (p, k) = &probs[l];
+                &p[row * k..(row + 1) * k]
+            };
+            let rows = [level(0), level(1), level(2)];
+            out.push(match tree {
+                Some(tree) => joint(rows, tree),
+                None => rows.map(argmax),
+            });
         }
     }
     Ok(out)
+}
+
+/// The most likely class and its probability.
+fn argmax(probs: &[f32]) -> (usize, f32) {
+    probs.iter().enumerate().fold(
+        (0, f32::MIN),
+        |acc, (i, &q)| if q > acc.1 { (i, q) } else { acc },
+    )
 }

@@ -88,6 +88,28 @@ impl PlaceClasses {
         self.levels().map(<[String]>::len)
     }
 
+    /// For each place class, the indices of its building and floor classes: the hierarchy that
+    /// [`joint`] decodes by. `None` when a place's floor or building is not in the lists (a
+    /// hand-edited `place.toml`); the levels are then read independently.
+    pub fn tree(&self) -> Option<Vec<[usize; 2]>> {
+        self.corridor
+            .iter()
+            .map(|place| {
+                let floor = place.rsplitn(3, '/').nth(2)?;
+                let building = floor.rsplit_once('/')?.0;
+                let f = self
+                    .floor
+                    .binary_search_by(|n| n.as_str().cmp(floor))
+                    .ok()?;
+                let b = self
+                    .building
+                    .binary_search_by(|n| n.as_str().cmp(building))
+                    .ok()?;
+                Some([b, f])
+            })
+            .collect()
+    }
+
     /// The class index of `label` at each level; `None` when one of its classes is unknown.
     pub fn indices(&self, label: &Label) -> Option<[usize; 3]> {
         let names = class_names(label);
@@ -105,6 +127,51 @@ pub fn class_names(label: &Label) -> [String; 3] {
     let floor = format!("{}/{}", label.building, label.floor);
     let place = format!("{floor}/{}/{}", label.corridor, label.direction);
     [label.building.clone(), floor, place]
+}
+
+/// The most likely consistent place of one image from the three heads' probabilities:
+/// the place class `c` maximising `p_building(b(c)) · p_floor(f(c)) · p_place(c)` (the heads as a
+/// product of experts), with the building and floor it lies in. Each level's probability is the
+/// posterior of that product, renormalised over the places, summed over the places in the class.
+///
+/// Why: each head alone is free to disagree with the others (`B0/F2` from the floor head beside
+/// `B0/F1/C2/back` from the place head), and the place head alone throws away what the building
+/// and floor heads know. `tree` is [`PlaceClasses::tree`]; `probs` the softmax of each head.
+pub fn joint(probs: [&[f32]; 3], tree: &[[usize; 2]]) -> [(usize, f32); 3] {
+    let [building, floor, place] = probs;
+    // Scores in log space, shifted by their maximum so that the exponentials cannot underflow
+    // all together.
+    let log = |p: f32| p.max(f32::MIN_POSITIVE).ln();
+    let scores: Vec<f32> = tree
+        .iter()
+        .zip(place)
+        .map(|(&[b, f], &p)| log(building[b]) + log(floor[f]) + log(p))
+        .collect();
+    let top = scores.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    let weights: Vec<f32> = scores.iter().map(|s| (s - top).exp()).collect();
+    let total: f32 = weights.iter().sum();
+    let best = scores
+        .iter()
+        .enumerate()
+        .fold(
+            (0, f32::NEG_INFINITY),
+            |acc, (i, &s)| if s > acc.1 { (i, s) } else { acc },
+        )
+        .0;
+    let [b, f] = tree[best];
+    let mass = |keep: &dyn Fn(&[usize; 2]) -> bool| {
+        tree.iter()
+            .zip(&weights)
+            .filter(|(t, _)| keep(t))
+            .map(|(_, w)| w)
+            .sum::<f32>()
+            / total
+    };
+    [
+        (b, mass(&|t| t[0] == b)),
+        (f, mass(&|t| t[1] == f)),
+        (best, weights[best] / total),
+    ]
 }
 
 /// What a [`PlaceNet`] is built from.

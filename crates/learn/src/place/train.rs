@@ -92,6 +92,10 @@ pub struct PlaceConfig {
     /// layout and fittings, not by how the lamps light the paint today.
     #[serde(default)]
     pub shape_bias: bool,
+    /// Zoom and shift the training views a little ([`crate::loader::reframe_view`]): new
+    /// viewpoints between the walks' frames.
+    #[serde(default)]
+    pub reframe: bool,
     /// Stop after this many epochs without a better mean validation accuracy.
     pub patience: Option<usize>,
     /// Seed of initialisation, order, jitter and dropout.
@@ -118,6 +122,7 @@ impl PlaceConfig {
             split: PlaceSplit::Session,
             augment: false,
             shape_bias: false,
+            reframe: false,
             patience: Some(5),
             seed: 0,
             resume: false,
@@ -388,6 +393,7 @@ pub fn train_place(
         final_fraction: 0.01,
     };
     let sizes = classes.sizes();
+    let tree = classes.tree();
     let [c, h, w] = input;
     while meta.epoch < cfg.epochs && !cfg.patience.is_some_and(|p| meta.epoch > 0 && stale >= p) {
         let epoch = meta.epoch + 1;
@@ -396,10 +402,11 @@ pub fn train_place(
         rng.set_stream(epoch as u64);
         let mut order: Vec<usize> = (0..train.len()).collect();
         order.shuffle(&mut rng);
-        let augment = (cfg.augment || cfg.shape_bias).then(|| loader::Augment {
+        let augment = (cfg.augment || cfg.shape_bias || cfg.reframe).then(|| loader::Augment {
             rng: loader::jitter_rng(cfg.seed, epoch),
             jitter: cfg.augment,
             style: cfg.shape_bias,
+            reframe: cfg.reframe,
         });
         let mut loss_sum = 0.0;
         std::thread::scope(|scope| -> Result<()> {
@@ -454,7 +461,7 @@ pub fn train_place(
             Ok(())
         })?;
         let valid = net.valid();
-        let predicted = classify(&valid, &val.inputs, input, &plain)?;
+        let predicted = classify(&valid, &val.inputs, input, tree.as_deref(), &plain)?;
         let best: Vec<[usize; 3]> = predicted.iter().map(|p| p.map(|(k, _)| k)).collect();
         let val_accuracy = accuracy(&best, &val_targets);
         let metrics = PlaceEpoch {
