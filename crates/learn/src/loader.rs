@@ -195,8 +195,9 @@ const REFRAME_SHIFT: f64 = 0.08;
 /// 5 pixels is about 4.6°): new viewpoints between the rendered ones, without the memory of
 /// more frames. Place labels stay true; pose labels would not, so pose training never asks.
 ///
-/// Written here rather than with `fast_image_resize` or `imgproc`: those work on `u8` images,
-/// and the view is already normalised `f32` (see the module docs).
+/// Written here rather than with `fast_image_resize` or `imgproc`: the view is already a
+/// normalised planar `f32` array `[C, H, W]` (see the module docs), where those take images of
+/// interleaved pixels, and zooming out reaches past the border, which a crop box cannot.
 pub fn reframe_view(
     view: &mut [f32],
     channels: usize,
