@@ -5,7 +5,8 @@
 //! The corridor class is the whole place, `building/floor/corridor/direction` (corridor names
 //! repeat between floors and buildings), so a right corridor answer implies a right building
 //! and floor. Each head is a linear layer on the features pooled to a small grid (with
-//! dropout in training), trained by the sum of the three cross-entropies.
+//! dropout in training), trained by the sum of the three cross-entropies, and read together
+//! ([`joint`]) so that the building, floor and place of an answer agree.
 //!
 //! # Files (beside a pose model's, or alone)
 //! ```text

@@ -39,7 +39,7 @@ const WALK_FPS: f64 = 2.5;
 /// one, since a place unseen in training cannot be recognised at any resolution. At 64x48 for
 /// 6 epochs the held-out walks' corridor accuracy rose from 68 % with 9600 frames to 77 % with
 /// 19200 (the quick run), 85 % with 38400 and 89–90 % with 76800 (the full run: 90.1 % with
-/// the session split, 33 min and about 5.6 GB on two cores). The classifier's own default, `place240`, would need 53 GB for 76800 frames
+/// the session split, 33 min and about 5.6 GB on two cores; with [`REFRAME`], 90.6 %). The classifier's own default, `place240`, would need 53 GB for 76800 frames
 /// (26.5 GB for 38400, which a 24 GB machine refuses).
 const STUDY_VIEW: &str = "resize=64x48,norm=imagenet";
 
