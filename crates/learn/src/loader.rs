@@ -1,7 +1,7 @@
 //! Training batches, assembled on a worker thread while the previous step trains, optionally
 //! reframed ([`reframe_view`], place training only), restyled ([`style_view`], shape-biased
-//! training) and jittered ([`jitter_view`]), with the
-//! plane targets of their frames when the network has a plane branch.
+//! training) and jittered ([`jitter_view`]), with the plane targets of their frames when the
+//! network has a plane branch.
 //!
 //! The jitter works on the views already in memory (after grey conversion, resizing, CLAHE and
 //! normalisation), not on source images: `imgproc::augment` needs the `u8` source image, which

@@ -10,7 +10,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 use image::DynamicImage;
 use imgproc::view::{View, ViewSpec};
 
-use super::{PLACE_BPK, PLACE_TOML, PlaceMeta, PlaceNet, joint};
+use super::{PLACE_BPK, PLACE_TOML, PlaceMeta, PlaceNet, argmax, joint};
 use crate::checkpoint;
 use crate::infer::{CHUNK, pack_views};
 use crate::{LearnError, Result};
@@ -162,12 +162,4 @@ pub(super) fn classify(
         }
     }
     Ok(out)
-}
-
-/// The most likely class and its probability.
-fn argmax(probs: &[f32]) -> (usize, f32) {
-    probs.iter().enumerate().fold(
-        (0, f32::MIN),
-        |acc, (i, &q)| if q > acc.1 { (i, q) } else { acc },
-    )
 }

@@ -151,14 +151,7 @@ pub fn joint(probs: [&[f32]; 3], tree: &[[usize; 2]]) -> [(usize, f32); 3] {
     let top = scores.iter().copied().fold(f32::NEG_INFINITY, f32::max);
     let weights: Vec<f32> = scores.iter().map(|s| (s - top).exp()).collect();
     let total: f32 = weights.iter().sum();
-    let best = scores
-        .iter()
-        .enumerate()
-        .fold(
-            (0, f32::NEG_INFINITY),
-            |acc, (i, &s)| if s > acc.1 { (i, s) } else { acc },
-        )
-        .0;
+    let best = argmax(&scores).0;
     let [b, f] = tree[best];
     let mass = |keep: &dyn Fn(&[usize; 2]) -> bool| {
         tree.iter()
@@ -173,6 +166,14 @@ pub fn joint(probs: [&[f32]; 3], tree: &[[usize; 2]]) -> [(usize, f32); 3] {
         (f, mass(&|t| t[1] == f)),
         (best, weights[best] / total),
     ]
+}
+
+/// The index of the largest value and the value (the first of equals).
+pub(super) fn argmax(values: &[f32]) -> (usize, f32) {
+    values.iter().enumerate().fold(
+        (0, f32::NEG_INFINITY),
+        |acc, (i, &v)| if v > acc.1 { (i, v) } else { acc },
+    )
 }
 
 /// What a [`PlaceNet`] is built from.
