@@ -320,6 +320,11 @@ fn a_place_classifier_trains_from_the_command_line() -> TestResult {
     for key in ["building", "floor", "corridor", "direction", "p"] {
         assert!(!line["place"][key].is_null(), "{key} missing in {line}");
     }
+    // The first frame of a walk has nothing before it: the place filter and `--single` agree.
+    let alone = first_line(&["--single"])?;
+    for key in ["building", "floor", "corridor", "direction"] {
+        assert_eq!(line["place"][key], alone["place"][key], "{key}");
+    }
     let tum = indoorloc(&["localize", "--model", model_s, ds_s, "--format", "tum"])?;
     assert_eq!(tum.status.code(), Some(2));
     json_of(&indoorloc(&[

@@ -6,7 +6,10 @@ use crate::common;
 use std::path::Path;
 
 use data::native::{Label, NativeDataset, write_metadata};
-use learn::place::{PlaceConfig, PlaceEvent, PlaceLoaded, PlaceLocalizer, PlaceSplit, train_place};
+use learn::place::{
+    PlaceConfig, PlaceEvent, PlaceFilter, PlaceLoaded, PlaceLocalizer, PlaceSplit,
+    PlaceTransitions, WalkFrame, train_place,
+};
 use learn::{Arch, LearnError};
 
 /// Labels from the pose: building by x, corridor by the sign of y, direction by heading.
@@ -95,6 +98,52 @@ fn learns_places_and_inference_reproduces_the_stored_accuracy() {
     let measured = right.map(|r| r as f64 / val.len() as f64);
     assert_eq!(measured, acc);
 
+    // The training walks' motion model: every pair of consecutive training frames (2 walks of
+    // 24), at the dataset's frame rate.
+    let meta = loc.meta();
+    let transitions = meta.transitions.as_ref().expect("a motion model");
+    assert_eq!(transitions.pairs, 2 * 23);
+    assert!((transitions.frame_s - 1.0 / ds.info.frame_rate).abs() < 1e-9);
+    assert_eq!(transitions.changes.len(), meta.classes.corridor.len());
+    // Frames that each start a walk are placed alone, as by predict_batch; along the walk the
+    // filter gives distributions too.
+    let views: Vec<_> = val
+        .iter()
+        .map(|&i| {
+            let img = image::open(ds.frame_path(ds.frame_number(i).unwrap())).unwrap();
+            loc.view(&img).unwrap()
+        })
+        .collect();
+    let alone = vec![
+        WalkFrame {
+            t: None,
+            starts_walk: true
+        };
+        views.len()
+    ];
+    let walks = loc.predict_walks(&views, &alone).unwrap();
+    let batch = loc.predict_batch(&views).unwrap();
+    assert_eq!(walks.len(), batch.len());
+    for (w, b) in walks.iter().zip(&batch) {
+        assert_eq!(w.indices, b.indices);
+        for (x, y) in [
+            (&w.building, &b.building),
+            (&w.floor, &b.floor),
+            (&w.corridor, &b.corridor),
+        ] {
+            assert!(
+                x.0 == y.0 && (x.1 - y.1).abs() < 1e-5,
+                "{w:?} against {b:?}"
+            );
+        }
+    }
+    let mut tracker = loc.tracker();
+    assert!(tracker.filters());
+    for view in &views {
+        let p = tracker.step(view, None).unwrap();
+        assert!(p.building.1 + 1e-6 >= p.floor.1 && p.floor.1 + 1e-6 >= p.corridor.1);
+    }
+
     // resuming to more epochs continues; other settings are refused by name
     let mut more = config(&data, &out, 7);
     more.resume = true;
@@ -163,6 +212,19 @@ fn a_model_from_before_the_pooling_grid_reads_as_global_pooling() {
     std::fs::write(&toml, old).unwrap();
     let after = PlaceLocalizer::load(&out).unwrap().predict(&img).unwrap();
     assert_eq!(before, after);
+    // ... nor a motion model: its frames are placed alone
+    let text = std::fs::read_to_string(&toml).unwrap();
+    let cut = text
+        .find("[transitions]")
+        .expect("a motion model in place.toml");
+    std::fs::write(&toml, &text[..cut]).unwrap();
+    let old = PlaceLocalizer::load(&out).unwrap();
+    let mut tracker = old.tracker();
+    assert!(!tracker.filters());
+    let view = old.view(&img).unwrap();
+    for _ in 0..2 {
+        assert_eq!(tracker.step(&view, None).unwrap(), before);
+    }
 }
 
 /// Two buildings, B0 with floors F0 and F1, B1 with F0; places under them.
@@ -213,4 +275,61 @@ fn a_place_outside_the_floor_lists_leaves_the_heads_independent() {
     let mut classes = classes();
     classes.corridor.push("B2/F0/C9/fwd".into());
     assert_eq!(classes.tree(), None);
+}
+
+#[test]
+fn transitions_are_counted_between_consecutive_frames_of_a_walk() {
+    // Walk 1: 0, 0, 1; walk 2: 2, 2 (the `None` breaks the chain).
+    let chain = [Some(0), Some(0), Some(1), None, Some(2), Some(2)];
+    let t = PlaceTransitions::count(chain, 3, 0.4);
+    assert_eq!((t.pairs, t.stays), (3, 2));
+    assert_eq!(t.changes, vec![vec![0, 1, 0], vec![0; 3], vec![0; 3]]);
+    assert_eq!(t.frame_s, 0.4);
+    // one pseudo-count each way: (2 + 1) / (3 + 2)
+    assert!((t.stay() - 0.6).abs() < 1e-12);
+}
+
+/// A motion model over three places where walkers keep their place 95 % of the time and turn
+/// from place 0 to place 1 (and back) when they move.
+fn sticky() -> PlaceTransitions {
+    PlaceTransitions {
+        frame_s: 0.4,
+        pairs: 1000,
+        stays: 950,
+        changes: vec![vec![0, 25, 0], vec![25, 0, 0], vec![0, 0, 0]],
+    }
+}
+
+#[test]
+fn the_walk_filter_keeps_the_place_through_an_unclear_frame_and_follows_a_real_change() {
+    let mut filter = PlaceFilter::new(&sticky());
+    let sure_0 = [0.9, 0.05, 0.05];
+    let unclear = [0.4, 0.5, 0.1];
+    let sure_1 = [0.05, 0.9, 0.05];
+    let best = |b: &[f32]| argmax(b);
+    for k in 0..3 {
+        let b = filter.step(&sure_0, Some(0.4 * k as f64));
+        assert_eq!(best(&b), 0);
+        assert!((b.iter().sum::<f32>() - 1.0).abs() < 1e-5, "{b:?}");
+    }
+    // Alone, the unclear frame reads as place 1; after three frames of place 0 it stays 0.
+    assert_eq!(best(&filter.step(&unclear, Some(1.2))), 0);
+    // A real turn: two clear frames of place 1 are enough.
+    filter.step(&sure_1, Some(1.6));
+    assert_eq!(best(&filter.step(&sure_1, Some(2.0))), 1);
+    // After a reset the unclear frame stands alone.
+    filter.reset();
+    assert_eq!(filter.step(&unclear, Some(0.0)), unclear.to_vec());
+    // Time matters: long after a clear frame, the walker may be anywhere, and the unclear
+    // frame decides for itself again.
+    filter.reset();
+    filter.step(&sure_0, Some(0.0));
+    assert_eq!(best(&filter.step(&unclear, Some(600.0))), 1);
+    // A posterior of the wrong length starts the walk over instead of failing.
+    assert_eq!(filter.step(&[0.5, 0.5], Some(600.4)), vec![0.5, 0.5]);
+    assert_eq!(filter.step(&unclear, Some(600.8)), unclear.to_vec());
+}
+
+fn argmax(v: &[f32]) -> usize {
+    (0..v.len()).fold(0, |a, i| if v[i] > v[a] { i } else { a })
 }

@@ -69,13 +69,13 @@ pub struct LocalizeArgs {
     /// Write to this file (atomically, when all frames are done) instead of stdout.
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
-    /// With a sequence model (trained with `train --window`): use only its single-frame
-    /// network, each frame alone.
+    /// Each frame alone: a sequence model (trained with `train --window`) uses only its
+    /// single-frame network, and a place model places every frame without the frames before it.
     #[arg(long)]
     single: bool,
-    /// Scene cuts where a sequence model starts over (a cut list or `scenecut --json` output:
-    /// positions of frames in the input, from 0). A native dataset's own cuts.csv, new
-    /// sequences and gaps in frame numbers always start it over.
+    /// Scene cuts where a sequence model and the place filter start over (a cut list or
+    /// `scenecut --json` output: positions of frames in the input, from 0). A native dataset's
+    /// own cuts.csv, new sequences and gaps in frame numbers always start them over.
     #[arg(long, value_name = "FILE")]
     cuts: Option<PathBuf>,
 }
@@ -228,6 +228,11 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
                 .with_seed(args.mc_seed),
         )),
     };
+    // A place model follows the walk unless each frame is to stand alone.
+    let mut place_tracker = places
+        .as_ref()
+        .filter(|_| !args.single)
+        .map(|loc| (loc, loc.tracker()));
     let cuts = match &args.cuts {
         Some(path) => data::cuts::read(path)?,
         None => Vec::new(),
@@ -254,16 +259,16 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
             }
         };
         let t0 = Instant::now();
+        let starts_over = item.new_scene
+            || cuts.binary_search(&(index as u64)).is_ok()
+            || last_seq.as_ref().is_some_and(|s| *s != item.seq);
+        last_seq = Some(item.seq.clone());
         let est = match &mut estimator {
             None => None,
             Some(Estimator::Sequence(seq, tracker)) => {
-                let starts_over = item.new_scene
-                    || cuts.binary_search(&(index as u64)).is_ok()
-                    || last_seq.as_ref().is_some_and(|s| *s != item.seq);
                 if starts_over {
                     tracker.reset();
                 }
-                last_seq = Some(item.seq.clone());
                 let view = seq.base().view(&img)?;
                 Some(tracker.step(&view))
             }
@@ -271,11 +276,17 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
         }
         .transpose()
         .with_context(|| format!("frame {}", item.name))?;
-        let place = places
-            .as_ref()
-            .map(|p| p.predict(&img))
-            .transpose()
-            .with_context(|| format!("frame {}", item.name))?;
+        let place = match &mut place_tracker {
+            Some((loc, tracker)) => {
+                if starts_over {
+                    tracker.reset();
+                }
+                Some(tracker.step(&loc.view(&img)?, item.t))
+            }
+            None => places.as_ref().map(|p| p.predict(&img)),
+        }
+        .transpose()
+        .with_context(|| format!("frame {}", item.name))?;
         let line = PoseLine {
             frame: item.name,
             seq: item.seq,

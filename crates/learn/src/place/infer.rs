@@ -10,7 +10,9 @@ use burn::tensor::{Device, Tensor, TensorData};
 use image::DynamicImage;
 use imgproc::view::{View, ViewSpec};
 
-use super::{PLACE_BPK, PLACE_TOML, PlaceMeta, PlaceNet, argmax, joint};
+use super::{
+    PLACE_BPK, PLACE_TOML, PlaceFilter, PlaceMeta, PlaceNet, argmax, decode, joint, place_posterior,
+};
 use crate::checkpoint;
 use crate::infer::{CHUNK, pack_views};
 use crate::{LearnError, Result};
@@ -89,10 +91,9 @@ impl PlaceLocalizer {
             .ok_or_else(|| LearnError::Input("no prediction for the image".into()))
     }
 
-    /// Places of many views made with this model's view.
+    /// Places of many views made with this model's view, each frame alone.
     pub fn predict_batch(&self, views: &[View]) -> Result<Vec<PlacePrediction>> {
         let inputs = pack_views(views, self.meta.input, &self.meta.view)?;
-        let levels = self.meta.classes.levels();
         let tree = self.meta.classes.tree();
         Ok(classify(
             &self.net,
@@ -102,19 +103,130 @@ impl PlaceLocalizer {
             &self.device,
         )?
         .into_iter()
-        .map(|p| {
-            let named = |level: usize| {
-                let (k, prob) = p[level];
-                (levels[level][k].clone(), prob as f64)
-            };
-            PlacePrediction {
-                building: named(0),
-                floor: named(1),
-                corridor: named(2),
-                indices: p.map(|(k, _)| k),
-            }
-        })
+        .map(|p| self.named(p))
         .collect())
+    }
+
+    /// A tracker that places the frames of one walk at a time, each given the frames before it.
+    pub fn tracker(&self) -> PlaceTracker<'_> {
+        let tree = self.meta.classes.tree();
+        let filter = match (&tree, &self.meta.transitions) {
+            (Some(_), Some(t)) if t.changes.len() == self.meta.classes.corridor.len() => {
+                Some(PlaceFilter::new(t))
+            }
+            _ => None,
+        };
+        PlaceTracker {
+            loc: self,
+            tree,
+            filter,
+        }
+    }
+
+    /// Places of the frames of recorded walks, in time order, each given the frames of its walk
+    /// up to it (as a [`PlaceTracker`] would give them live, in batches for speed): `frames`
+    /// gives each view's time in seconds and whether it starts a new walk.
+    pub fn predict_walks(
+        &self,
+        views: &[View],
+        frames: &[WalkFrame],
+    ) -> Result<Vec<PlacePrediction>> {
+        if views.len() != frames.len() {
+            return Err(LearnError::Input(format!(
+                "{} views but {} frame times",
+                views.len(),
+                frames.len()
+            )));
+        }
+        let inputs = pack_views(views, self.meta.input, &self.meta.view)?;
+        let probs = head_probs(&self.net, &inputs, self.meta.input, &self.device)?;
+        let mut tracker = self.tracker();
+        Ok(probs
+            .iter()
+            .zip(frames)
+            .map(|(p, frame)| {
+                if frame.starts_walk {
+                    tracker.reset();
+                }
+                tracker.take(p, frame.t)
+            })
+            .collect())
+    }
+
+    /// A prediction with names from class indices and probabilities.
+    fn named(&self, p: [(usize, f32); 3]) -> PlacePrediction {
+        let levels = self.meta.classes.levels();
+        let named = |level: usize| {
+            let (k, prob) = p[level];
+            let name = levels[level].get(k).cloned().unwrap_or_default();
+            (name, prob as f64)
+        };
+        PlacePrediction {
+            building: named(0),
+            floor: named(1),
+            corridor: named(2),
+            indices: p.map(|(k, _)| k),
+        }
+    }
+}
+
+/// When a frame of a walk was seen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WalkFrame {
+    /// Time, seconds (`None`: one training frame interval after the last).
+    pub t: Option<f64>,
+    /// The frame starts a new walk (a new sequence, a scene cut, a gap): what came before
+    /// says nothing about it.
+    pub starts_walk: bool,
+}
+
+/// A place model following one walk (see [`crate::place::PlaceFilter`]): each frame's place
+/// given the frames since the last [`PlaceTracker::reset`]. A model trained before place
+/// filtering (no motion model in `place.toml`), or with class lists that do not nest, places
+/// each frame alone.
+#[derive(Debug)]
+pub struct PlaceTracker<'a> {
+    loc: &'a PlaceLocalizer,
+    tree: Option<Vec<[usize; 2]>>,
+    filter: Option<PlaceFilter>,
+}
+
+impl PlaceTracker<'_> {
+    /// Whether frames are placed given the ones before them (the model has a motion model).
+    pub fn filters(&self) -> bool {
+        self.filter.is_some()
+    }
+
+    /// Forgets the walk: the next frame starts a new one.
+    pub fn reset(&mut self) {
+        if let Some(f) = &mut self.filter {
+            f.reset();
+        }
+    }
+
+    /// The place of the next frame of the walk, `view` (made with the model's view) seen at
+    /// time `t` seconds.
+    pub fn step(&mut self, view: &View, t: Option<f64>) -> Result<PlacePrediction> {
+        let meta = &self.loc.meta;
+        let inputs = pack_views(std::slice::from_ref(view), meta.input, &meta.view)?;
+        let probs = head_probs(&self.loc.net, &inputs, meta.input, &self.loc.device)?;
+        let p = probs
+            .first()
+            .ok_or_else(|| LearnError::Input("no prediction for the image".into()))?;
+        Ok(self.take(p, t))
+    }
+
+    /// Takes in one frame's head probabilities.
+    fn take(&mut self, probs: &[Vec<f32>; 3], t: Option<f64>) -> PlacePrediction {
+        let rows = [&probs[0][..], &probs[1][..], &probs[2][..]];
+        let p = match (&self.tree, &mut self.filter) {
+            (Some(tree), Some(filter)) => {
+                decode(&filter.step(&place_posterior(rows, tree), t), tree)
+            }
+            (Some(tree), None) => joint(rows, tree),
+            (None, _) => rows.map(argmax),
+        };
+        self.loc.named(p)
     }
 }
 
@@ -124,10 +236,29 @@ impl PlaceLocalizer {
 pub(super) fn classify(
     net: &PlaceNet,
     inputs: &[f32],
-    [c, h, w]: [usize; 3],
+    input: [usize; 3],
     tree: Option<&[[usize; 2]]>,
     device: &Device,
 ) -> Result<Vec<[(usize, f32); 3]>> {
+    Ok(head_probs(net, inputs, input, device)?
+        .iter()
+        .map(|p| {
+            let rows = [&p[0][..], &p[1][..], &p[2][..]];
+            match tree {
+                Some(tree) => joint(rows, tree),
+                None => rows.map(argmax),
+            }
+        })
+        .collect())
+}
+
+/// The softmax of each head for each packed input `[N, C, H, W]`, run in chunks of [`CHUNK`].
+fn head_probs(
+    net: &PlaceNet,
+    inputs: &[f32],
+    [c, h, w]: [usize; 3],
+    device: &Device,
+) -> Result<Vec<[Vec<f32>; 3]>> {
     let per = c * h * w;
     let n = inputs.len() / per.max(1);
     let mut out = Vec::with_capacity(n);
@@ -152,13 +283,9 @@ pub(super) fn classify(
         for row in 0..b {
             let level = |l: usize| {
                 let (p, k) = &probs[l];
-                &p[row * k..(row + 1) * k]
+                p[row * k..(row + 1) * k].to_vec()
             };
-            let rows = [level(0), level(1), level(2)];
-            out.push(match tree {
-                Some(tree) => joint(rows, tree),
-                None => rows.map(argmax),
-            });
+            out.push([level(0), level(1), level(2)]);
         }
     }
     Ok(out)

@@ -19,6 +19,7 @@
 
 mod infer;
 mod train;
+mod walk;
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -34,10 +35,11 @@ use crate::checkpoint::{DatasetRef, StateFiles};
 use crate::net::{Arch, Backbone, seeded_init};
 use crate::{LearnError, Result};
 
-pub use infer::{PlaceLocalizer, PlacePrediction};
+pub use infer::{PlaceLocalizer, PlacePrediction, PlaceTracker, WalkFrame};
 pub use train::{
     PlaceConfig, PlaceEvent, PlaceLoaded, PlaceSplit, PlaceSummary, accuracy, train_place,
 };
+pub use walk::{PlaceFilter, PlaceTransitions};
 
 /// File name of the place model's description.
 pub const PLACE_TOML: &str = "place.toml";
@@ -139,6 +141,11 @@ pub fn class_names(label: &Label) -> [String; 3] {
 /// `B0/F1/C2/back` from the place head), and the place head alone throws away what the building
 /// and floor heads know. `tree` is [`PlaceClasses::tree`]; `probs` the softmax of each head.
 pub fn joint(probs: [&[f32]; 3], tree: &[[usize; 2]]) -> [(usize, f32); 3] {
+    decode(&place_posterior(probs, tree), tree)
+}
+
+/// The posterior over place classes of the heads' product (see [`joint`]), summing to 1.
+pub fn place_posterior(probs: [&[f32]; 3], tree: &[[usize; 2]]) -> Vec<f32> {
     let [building, floor, place] = probs;
     // Scores in log space, shifted by their maximum so that the exponentials cannot underflow
     // all together.
@@ -149,22 +156,28 @@ pub fn joint(probs: [&[f32]; 3], tree: &[[usize; 2]]) -> [(usize, f32); 3] {
         .map(|(&[b, f], &p)| log(building[b]) + log(floor[f]) + log(p))
         .collect();
     let top = scores.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-    let weights: Vec<f32> = scores.iter().map(|s| (s - top).exp()).collect();
+    let mut weights: Vec<f32> = scores.iter().map(|s| (s - top).exp()).collect();
     let total: f32 = weights.iter().sum();
-    let best = argmax(&scores).0;
-    let [b, f] = tree[best];
+    weights.iter_mut().for_each(|w| *w /= total);
+    weights
+}
+
+/// The most likely place of a `posterior` over place classes, with its building and floor and
+/// each one's probability (the posterior mass of the places in it).
+pub fn decode(posterior: &[f32], tree: &[[usize; 2]]) -> [(usize, f32); 3] {
+    let best = argmax(posterior).0;
+    let [b, f] = tree.get(best).copied().unwrap_or_default();
     let mass = |keep: &dyn Fn(&[usize; 2]) -> bool| {
         tree.iter()
-            .zip(&weights)
+            .zip(posterior)
             .filter(|(t, _)| keep(t))
             .map(|(_, w)| w)
             .sum::<f32>()
-            / total
     };
     [
         (b, mass(&|t| t[0] == b)),
         (f, mass(&|t| t[1] == f)),
-        (best, weights[best] / total),
+        (best, posterior.get(best).copied().unwrap_or(0.0)),
     ]
 }
 
@@ -306,6 +319,10 @@ pub struct PlaceMeta {
     pub state: StateFiles,
     /// Metrics of every finished epoch.
     pub history: Vec<PlaceEpoch>,
+    /// How the training walks moved between places, for filtering places along a walk
+    /// ([`PlaceFilter`]); models from before it have none, and their frames are placed alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transitions: Option<PlaceTransitions>,
 }
 
 impl PlaceMeta {

@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 use super::infer::classify;
 use super::{
     PLACE_BPK, PLACE_FORMAT, PLACE_STATE_DIR, PLACE_TOML, PlaceClasses, PlaceEpoch, PlaceMeta,
-    PlaceNet, PlaceNetConfig,
+    PlaceNet, PlaceNetConfig, PlaceTransitions,
 };
 use crate::checkpoint::{self, DatasetRef, StateFiles};
 use crate::dataset::{self, DEFAULT_VAL_FRACTION, Samples};
@@ -341,6 +341,12 @@ pub fn train_place(
         classes: classes.sizes(),
         grid: cfg.grid,
     };
+    let transitions = walk_transitions(
+        &train,
+        &train_targets,
+        classes.sizes()[2],
+        data.info.frame_rate,
+    );
     let Start {
         mut meta,
         mut net,
@@ -374,6 +380,7 @@ pub fn train_place(
             weights_hash: String::new(),
             state: StateFiles::default(),
             history: Vec::new(),
+            transitions: transitions.clone(),
         };
         Start {
             meta,
@@ -495,7 +502,46 @@ pub fn train_place(
             });
         }
     }
+    if meta.transitions.is_none() && transitions.is_some() {
+        // A model trained before place filtering, resumed: it gains the motion model of its
+        // own training walks.
+        meta.transitions = transitions;
+        meta.write(&cfg.out)?;
+    }
     Ok(PlaceSummary::of(&meta, &cfg.out))
+}
+
+/// The place changes between consecutive frames of the training walks (`targets`' place
+/// class, frames in order of sequence and number; a missing frame breaks the chain), taken
+/// `frame_rate` times a second. `None` without a frame rate.
+fn walk_transitions(
+    samples: &Samples,
+    targets: &[[usize; 3]],
+    places: usize,
+    frame_rate: f64,
+) -> Option<PlaceTransitions> {
+    if !(frame_rate > 0.0 && frame_rate.is_finite()) {
+        return None;
+    }
+    let mut frames: Vec<(&str, u64, usize)> = (0..samples.len())
+        .filter_map(|i| {
+            let (seq, frame) = samples.frame_key(i)?;
+            Some((seq, frame, targets.get(i)?[2]))
+        })
+        .collect();
+    frames.sort_unstable();
+    let chain = frames
+        .iter()
+        .enumerate()
+        .flat_map(|(i, &(seq, frame, place))| {
+            let follows = i > 0 && {
+                let (s, f, _) = frames[i - 1];
+                s == seq && f + 1 == frame
+            };
+            // A break, then the frame, where it does not follow the one before.
+            (!follows).then_some(None).into_iter().chain([Some(place)])
+        });
+    Some(PlaceTransitions::count(chain, places, 1.0 / frame_rate))
 }
 
 /// Continues from the checkpoint in `cfg.out` after checking data and settings.

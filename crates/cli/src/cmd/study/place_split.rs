@@ -18,7 +18,8 @@ use anyhow::{Context, Result};
 use clap::Args;
 use data::native::NativeDataset;
 use learn::place::{
-    LEVELS, PlaceConfig, PlaceLocalizer, PlacePrediction, PlaceSplit, class_names, train_place,
+    LEVELS, PlaceConfig, PlaceLocalizer, PlacePrediction, PlaceSplit, WalkFrame, class_names,
+    train_place,
 };
 use learn::{Localizer, Schedule, Task, TrainConfig};
 use report::{HtmlReport, Table};
@@ -113,6 +114,11 @@ struct Row {
     heldout_building_acc: f64,
     heldout_floor_acc: f64,
     heldout_corridor_acc: f64,
+    /// Accuracy on the held-out walks with each frame placed given the frames of its walk
+    /// before it (`localize`'s place filter; causal, reset at every new walk).
+    heldout_walk_building_acc: f64,
+    heldout_walk_floor_acc: f64,
+    heldout_walk_corridor_acc: f64,
     /// Size of the weights file, megabytes.
     model_mb: f64,
     /// Median time per image on one thread, milliseconds (view made beforehand).
@@ -239,6 +245,7 @@ pub fn run(args: &PlaceSplitArgs) -> Result<()> {
                 .with_context(|| format!("{}: no label for frame {frame}", heldout.display()))
         })
         .collect::<Result<_>>()?;
+    let walk_frames = walk_frames(&ds);
 
     let mut rows = Vec::new();
     let mut session_predictions = None;
@@ -277,6 +284,7 @@ pub fn run(args: &PlaceSplitArgs) -> Result<()> {
             .collect::<learn::Result<Vec<_>>>()?;
         let predicted = loc.predict_batch(&views)?;
         let heldout_acc = heldout_accuracy(&predicted, &truth);
+        let [wb, wf, wc] = heldout_accuracy(&loc.predict_walks(&views, &walk_frames)?, &truth);
         let infer_ms = one_thread_ms(&loc, &views)?;
         let model_mb = std::fs::metadata(model.join(learn::place::PLACE_BPK))?.len() as f64 / 1e6;
         let [b, f, c] = summary.val_accuracy;
@@ -289,6 +297,9 @@ pub fn run(args: &PlaceSplitArgs) -> Result<()> {
             heldout_building_acc: hb,
             heldout_floor_acc: hf,
             heldout_corridor_acc: hc,
+            heldout_walk_building_acc: wb,
+            heldout_walk_floor_acc: wf,
+            heldout_walk_corridor_acc: wc,
             model_mb,
             infer_ms,
         });
@@ -389,6 +400,28 @@ fn render(cfg: &SynthConfig, dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// The time of each frame of `ds` and whether it starts a walk (a new sequence, a cut, a gap
+/// in frame numbers), as `localize` would follow them.
+fn walk_frames(ds: &NativeDataset) -> Vec<WalkFrame> {
+    let cuts = ds.cuts.clone().unwrap_or_default();
+    let frames = &ds.trajectory.frames;
+    (0..frames.len())
+        .map(|i| {
+            let number = ds.frame_number(i);
+            let starts_walk = i == 0
+                || frames[i - 1].seq != frames[i].seq
+                || number.is_none_or(|n| {
+                    ds.frame_number(i - 1).map(|m| m + 1) != Some(n)
+                        || cuts.binary_search(&n).is_ok()
+                });
+            WalkFrame {
+                t: frames[i].t,
+                starts_walk,
+            }
+        })
+        .collect()
+}
+
 /// Accuracy per level of predictions against true class names.
 fn heldout_accuracy(predicted: &[PlacePrediction], truth: &[[String; 3]]) -> [f64; 3] {
     let mut right = [0usize; 3];
@@ -469,6 +502,7 @@ fn table(rows: &[Row]) -> Table {
             "held-out building",
             "held-out floor",
             "held-out place",
+            "held-out place, walk filter",
             "model (MB)",
             "ms / image (1 thread)",
         ],
@@ -482,6 +516,7 @@ fn table(rows: &[Row]) -> Table {
             pct(r.heldout_building_acc),
             pct(r.heldout_floor_acc),
             pct(r.heldout_corridor_acc),
+            pct(r.heldout_walk_corridor_acc),
             format!("{:.2}", r.model_mb),
             format!("{:.2}", r.infer_ms),
         ]);
