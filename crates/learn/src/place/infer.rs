@@ -218,13 +218,12 @@ impl PlaceTracker<'_> {
 
     /// Takes in one frame's head probabilities.
     fn take(&mut self, probs: &[Vec<f32>; 3], t: Option<f64>) -> PlacePrediction {
-        let rows = [&probs[0][..], &probs[1][..], &probs[2][..]];
         let p = match (&self.tree, &mut self.filter) {
             (Some(tree), Some(filter)) => {
+                let rows = [&probs[0][..], &probs[1][..], &probs[2][..]];
                 decode(&filter.step(&place_posterior(rows, tree), t), tree)
             }
-            (Some(tree), None) => joint(rows, tree),
-            (None, _) => rows.map(argmax),
+            (tree, _) => read_heads(probs, tree.as_deref()),
         };
         self.loc.named(p)
     }
@@ -242,14 +241,18 @@ pub(super) fn classify(
 ) -> Result<Vec<[(usize, f32); 3]>> {
     Ok(head_probs(net, inputs, input, device)?
         .iter()
-        .map(|p| {
-            let rows = [&p[0][..], &p[1][..], &p[2][..]];
-            match tree {
-                Some(tree) => joint(rows, tree),
-                None => rows.map(argmax),
-            }
-        })
+        .map(|p| read_heads(p, tree))
         .collect())
+}
+
+/// One frame's class and probability at each level from its heads' softmax: decoded jointly
+/// by [`joint`] when `tree` is given, each head on its own otherwise.
+fn read_heads(probs: &[Vec<f32>; 3], tree: Option<&[[usize; 2]]>) -> [(usize, f32); 3] {
+    let rows = [&probs[0][..], &probs[1][..], &probs[2][..]];
+    match tree {
+        Some(tree) => joint(rows, tree),
+        None => rows.map(argmax),
+    }
 }
 
 /// The softmax of each head for each packed input `[N, C, H, W]`, run in chunks of [`CHUNK`].
