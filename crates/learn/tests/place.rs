@@ -333,3 +333,27 @@ fn the_walk_filter_keeps_the_place_through_an_unclear_frame_and_follows_a_real_c
 fn argmax(v: &[f32]) -> usize {
     (0..v.len()).fold(0, |a, i| if v[i] > v[a] { i } else { a })
 }
+
+#[test]
+fn a_scene_cut_breaks_the_training_walks_motion_model() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    // training walks s0 (frames 0-9) and s1 (10-19): 18 pairs of consecutive frames
+    common::make_dataset(&data, 6, 10);
+    add_labels(&data);
+    let ds = NativeDataset::open(&data).unwrap();
+    write_metadata(
+        &data,
+        &ds.info,
+        &ds.trajectory,
+        ds.labels.as_deref(),
+        Some(&[5]),
+        &ds.splits,
+    )
+    .unwrap();
+    let out = tmp.path().join("model");
+    train_place(&config(&data, &out, 1), &mut |_| {}).unwrap();
+    let meta = PlaceLocalizer::load(&out).unwrap().meta().clone();
+    // frame 5 follows a cut: 4 -> 5 is not a step of the walk
+    assert_eq!(meta.transitions.unwrap().pairs, 17);
+}

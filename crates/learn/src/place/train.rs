@@ -242,9 +242,12 @@ pub(super) fn sample_targets(
         .collect()
 }
 
-/// The dataset's labels by frame number and their classes.
-pub(super) fn dataset_labels(root: &Path) -> Result<(HashMap<u64, Label>, PlaceClasses)> {
+/// The dataset's labels by frame number, their classes, and the dataset's scene cuts (frame
+/// numbers, sorted).
+pub(super) fn dataset_labels(root: &Path) -> Result<(HashMap<u64, Label>, PlaceClasses, Vec<u64>)> {
     let ds = NativeDataset::open(root)?;
+    let mut cuts = ds.cuts.unwrap_or_default();
+    cuts.sort_unstable();
     let labels = ds.labels.ok_or_else(|| {
         LearnError::Input(format!(
             "{}: missing; a place classifier learns from the frames' place labels",
@@ -252,7 +255,11 @@ pub(super) fn dataset_labels(root: &Path) -> Result<(HashMap<u64, Label>, PlaceC
         ))
     })?;
     let classes = PlaceClasses::of(&labels);
-    Ok((labels.into_iter().map(|l| (l.frame, l)).collect(), classes))
+    Ok((
+        labels.into_iter().map(|l| (l.frame, l)).collect(),
+        classes,
+        cuts,
+    ))
 }
 
 /// Accuracy per level of `predicted` class indices against `targets`.
@@ -300,7 +307,7 @@ pub fn train_place(
     let t0 = Instant::now();
     let spec = ViewSpec::resolve(cfg.view.as_deref().unwrap_or("place240"))
         .map_err(|e| LearnError::Config(e.to_string()))?;
-    let (labels, classes) = dataset_labels(&cfg.data)?;
+    let (labels, classes, cuts) = dataset_labels(&cfg.data)?;
     let data = dataset::load(&cfg.data, &spec, cfg.seed)?;
     let (train, val) = match cfg.split {
         PlaceSplit::Session => (data.train.clone(), data.val.clone()),
@@ -344,6 +351,7 @@ pub fn train_place(
     let transitions = walk_transitions(
         &train,
         &train_targets,
+        &cuts,
         classes.sizes()[2],
         data.info.frame_rate,
     );
@@ -512,11 +520,13 @@ pub fn train_place(
 }
 
 /// The place changes between consecutive frames of the training walks (`targets`' place
-/// class, frames in order of sequence and number; a missing frame breaks the chain), taken
-/// `frame_rate` times a second. `None` without a frame rate.
+/// class, frames in order of sequence and number; a missing frame or a scene cut, `cuts`
+/// sorted, breaks the chain, as it resets the filter), taken `frame_rate` times a second.
+/// `None` without a frame rate.
 fn walk_transitions(
     samples: &Samples,
     targets: &[[usize; 3]],
+    cuts: &[u64],
     places: usize,
     frame_rate: f64,
 ) -> Option<PlaceTransitions> {
@@ -536,7 +546,7 @@ fn walk_transitions(
         .flat_map(|(i, &(seq, frame, place))| {
             let follows = i > 0 && {
                 let (s, f, _) = frames[i - 1];
-                s == seq && f + 1 == frame
+                s == seq && f + 1 == frame && cuts.binary_search(&frame).is_err()
             };
             // A break, then the frame, where it does not follow the one before.
             (!follows).then_some(None).into_iter().chain([Some(place)])
