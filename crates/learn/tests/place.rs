@@ -212,11 +212,19 @@ fn a_model_from_before_the_pooling_grid_reads_as_global_pooling() {
     std::fs::write(&toml, old).unwrap();
     let after = PlaceLocalizer::load(&out).unwrap().predict(&img).unwrap();
     assert_eq!(before, after);
-    // ... nor a motion model: its frames are placed alone
+    // A motion model without a row per place is refused, naming the file.
     let text = std::fs::read_to_string(&toml).unwrap();
     let cut = text
         .find("[transitions]")
         .expect("a motion model in place.toml");
+    let changes = cut + text[cut..].find("changes = ").unwrap();
+    std::fs::write(&toml, format!("{}changes = [[0]]\n", &text[..changes])).unwrap();
+    let err = PlaceLocalizer::load(&out).unwrap_err();
+    assert!(
+        err.to_string().contains("place.toml") && err.to_string().contains("[transitions]"),
+        "{err}"
+    );
+    // ... nor a motion model: its frames are placed alone
     std::fs::write(&toml, &text[..cut]).unwrap();
     let old = PlaceLocalizer::load(&out).unwrap();
     let mut tracker = old.tracker();

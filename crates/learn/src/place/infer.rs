@@ -110,10 +110,9 @@ impl PlaceLocalizer {
     /// A tracker that places the frames of one walk at a time, each given the frames before it.
     pub fn tracker(&self) -> PlaceTracker<'_> {
         let tree = self.meta.classes.tree();
+        // PlaceMeta::read checked that the motion model has a row and column per place.
         let filter = match (&tree, &self.meta.transitions) {
-            (Some(_), Some(t)) if t.changes.len() == self.meta.classes.corridor.len() => {
-                Some(PlaceFilter::new(t))
-            }
+            (Some(_), Some(t)) => Some(PlaceFilter::new(t)),
             _ => None,
         };
         PlaceTracker {

@@ -360,6 +360,20 @@ impl PlaceMeta {
         if meta.input[0] != meta.net.channels || meta.input.contains(&0) {
             return bad(format!("input {:?} does not fit the network", meta.input));
         }
+        if let Some(t) = &meta.transitions {
+            let places = meta.classes.corridor.len();
+            if t.changes.len() != places || t.changes.iter().any(|row| row.len() != places) {
+                return bad(format!(
+                    "[transitions] changes must be {places}x{places}, one row and column per place"
+                ));
+            }
+            if !(t.frame_s > 0.0 && t.frame_s.is_finite()) || t.stays > t.pairs {
+                return bad(format!(
+                    "[transitions] frame_s {} must be positive and stays {} at most pairs {}",
+                    t.frame_s, t.stays, t.pairs
+                ));
+            }
+        }
         Ok(meta)
     }
 

@@ -76,9 +76,9 @@ impl PlaceTransitions {
     /// pseudo-count spread evenly over the other places, normalised.
     fn moves(&self) -> Vec<Vec<f64>> {
         let n = self.changes.len();
+        let spread = 1.0 / (n.max(2) - 1) as f64;
         (0..n)
             .map(|i| {
-                let spread = 1.0 / (n.max(2) - 1) as f64;
                 let mut row: Vec<f64> = (0..n)
                     .map(|j| {
                         if i == j {
@@ -131,6 +131,10 @@ impl PlaceFilter {
     /// frame since the last reset. A posterior of another length than the model's places (or
     /// not a distribution) resets the walk and comes back as it is.
     pub fn step(&mut self, posterior: &[f32], t: Option<f64>) -> Vec<f32> {
+        if posterior.len() != self.moves.len() {
+            self.reset();
+            return posterior.to_vec();
+        }
         let dt = match (t, self.last_t) {
             (Some(now), Some(before)) if now >= before => now - before,
             _ => self.frame_s,
@@ -150,7 +154,7 @@ impl PlaceFilter {
             // The frame contradicts everything before it: the walk starts over from it.
             belief = seen().collect();
         }
-        if posterior.len() != self.moves.len() || !is_mass(&belief) {
+        if !is_mass(&belief) {
             self.reset();
             return posterior.to_vec();
         }
