@@ -297,7 +297,7 @@ fn a_place_classifier_trains_from_the_command_line() -> TestResult {
 
     // localize: places alone from a place-only folder, then beside the pose once a pose model
     // shares the folder
-    let first_line = |extra: &[&str]| -> TestResult<serde_json::Value> {
+    let lines = |extra: &[&str]| -> TestResult<Vec<serde_json::Value>> {
         let mut args = vec![
             "localize", "--model", model_s, ds_s, "--split", "val", "--mc", "0",
         ];
@@ -308,22 +308,41 @@ fn a_place_classifier_trains_from_the_command_line() -> TestResult {
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
-        let line = out
-            .stdout
+        out.stdout
             .split(|&b| b == b'\n')
-            .next()
-            .ok_or("no output")?;
-        Ok(serde_json::from_slice(line)?)
+            .filter(|l| !l.is_empty())
+            .map(|l| Ok(serde_json::from_slice(l)?))
+            .collect()
     };
-    let line = first_line(&[])?;
+    let first_line = |extra: &[&str]| -> TestResult<serde_json::Value> {
+        lines(extra)?
+            .into_iter()
+            .next()
+            .ok_or_else(|| "no output".into())
+    };
+    let smoothed = lines(&[])?;
+    let line = &smoothed[0];
     assert!(line["position"].is_null(), "{line}");
     for key in ["building", "floor", "corridor", "direction", "p"] {
         assert!(!line["place"][key].is_null(), "{key} missing in {line}");
     }
-    // The first frame of a walk has nothing before it: the place filter and `--single` agree.
-    let alone = first_line(&["--single"])?;
+    // Told late (the default lag) or at once, every frame comes out once and in order.
+    let alone = lines(&["--single"])?;
+    let frames = |ls: &[serde_json::Value]| -> Vec<String> {
+        ls.iter().map(|l| l["frame"].to_string()).collect()
+    };
+    assert_eq!(frames(&smoothed), frames(&alone));
+    assert_eq!(frames(&lines(&["--place-lag", "inf"])?), frames(&alone));
+    // With no lag, the first frame of a walk has nothing around it: the filter and `--single`
+    // agree.
+    let live = first_line(&["--place-lag", "0"])?;
     for key in ["building", "floor", "corridor", "direction"] {
-        assert_eq!(line["place"][key], alone["place"][key], "{key}");
+        assert_eq!(live["place"][key], alone[0]["place"][key], "{key}");
+    }
+    for lag in ["--place-lag=-1", "--place-lag=nan"] {
+        let bad = indoorloc(&["localize", "--model", model_s, ds_s, lag])?;
+        assert_eq!(bad.status.code(), Some(2));
+        assert!(String::from_utf8_lossy(&bad.stderr).contains("must be 0 or more seconds"));
     }
     let tum = indoorloc(&["localize", "--model", model_s, ds_s, "--format", "tum"])?;
     assert_eq!(tum.status.code(), Some(2));

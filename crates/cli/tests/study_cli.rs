@@ -208,6 +208,7 @@ fn study_place_split_reports_both_splits_and_confusion_matrices() -> TestResult 
             "corridor_acc",
             "heldout_corridor_acc",
             "heldout_walk_corridor_acc",
+            "heldout_smooth_corridor_acc",
         ] {
             let a = r[key].as_f64().ok_or(key)?;
             assert!((0.0..=1.0).contains(&a), "{key} = {a}");

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use data::native::{Label, NativeDataset, write_metadata};
 use learn::place::{
-    PlaceConfig, PlaceEvent, PlaceFilter, PlaceLoaded, PlaceLocalizer, PlaceSplit,
+    PlaceConfig, PlaceEvent, PlaceFilter, PlaceLoaded, PlaceLocalizer, PlaceSmoother, PlaceSplit,
     PlaceTransitions, WalkFrame, train_place,
 };
 use learn::{Arch, LearnError};
@@ -121,27 +121,55 @@ fn learns_places_and_inference_reproduces_the_stored_accuracy() {
         };
         views.len()
     ];
-    let walks = loc.predict_walks(&views, &alone).unwrap();
     let batch = loc.predict_batch(&views).unwrap();
-    assert_eq!(walks.len(), batch.len());
-    for (w, b) in walks.iter().zip(&batch) {
-        assert_eq!(w.indices, b.indices);
-        for (x, y) in [
-            (&w.building, &b.building),
-            (&w.floor, &b.floor),
-            (&w.corridor, &b.corridor),
-        ] {
-            assert!(
-                x.0 == y.0 && (x.1 - y.1).abs() < 1e-5,
-                "{w:?} against {b:?}"
-            );
+    for lag in [0.0, 2.0] {
+        let walks = loc.predict_walks(&views, &alone, lag).unwrap();
+        assert_eq!(walks.len(), batch.len());
+        for (w, b) in walks.iter().zip(&batch) {
+            assert_eq!(w.indices, b.indices);
+            assert_eq!(w.indices, b.indices);
+            for (x, y) in [
+                (&w.building, &b.building),
+                (&w.floor, &b.floor),
+                (&w.corridor, &b.corridor),
+            ] {
+                assert!(
+                    x.0 == y.0 && (x.1 - y.1).abs() < 1e-5,
+                    "{w:?} against {b:?}"
+                );
+            }
         }
     }
-    let mut tracker = loc.tracker();
-    assert!(tracker.filters());
+    // One walk: every frame is told once, with no lag at once and with the whole walk's lag at
+    // the end; the levels stay nested.
+    let one_walk: Vec<WalkFrame> = (0..views.len())
+        .map(|k| WalkFrame {
+            t: None,
+            starts_walk: k == 0,
+        })
+        .collect();
+    let whole = loc.predict_walks(&views, &one_walk, f64::INFINITY).unwrap();
+    assert_eq!(whole.len(), views.len());
+    let mut live = loc.tracker(0.0);
+    assert!(live.filters());
+    let mut at_end = loc.tracker(f64::INFINITY);
     for view in &views {
-        let p = tracker.step(view, None).unwrap();
+        let told = live.step(view, None).unwrap();
+        assert_eq!(told.len(), 1);
+        let p = &told[0];
         assert!(p.building.1 + 1e-6 >= p.floor.1 && p.floor.1 + 1e-6 >= p.corridor.1);
+        assert!(at_end.step(view, None).unwrap().is_empty());
+    }
+    assert!(live.finish().is_empty());
+    // (one frame at a time against a batch: the same places, probabilities to float rounding)
+    let last = at_end.finish();
+    assert_eq!(last.len(), whole.len());
+    for (a, b) in last.iter().zip(&whole) {
+        assert_eq!(a.indices, b.indices);
+        assert!(
+            (a.corridor.1 - b.corridor.1).abs() < 1e-5,
+            "{a:?} against {b:?}"
+        );
     }
 
     // resuming to more epochs continues; other settings are refused by name
@@ -227,12 +255,13 @@ fn a_model_from_before_the_pooling_grid_reads_as_global_pooling() {
     // ... nor a motion model: its frames are placed alone
     std::fs::write(&toml, &text[..cut]).unwrap();
     let old = PlaceLocalizer::load(&out).unwrap();
-    let mut tracker = old.tracker();
+    let mut tracker = old.tracker(f64::INFINITY);
     assert!(!tracker.filters());
     let view = old.view(&img).unwrap();
     for _ in 0..2 {
-        assert_eq!(tracker.step(&view, None).unwrap(), before);
+        assert_eq!(tracker.step(&view, None).unwrap(), vec![before.clone()]);
     }
+    assert!(tracker.finish().is_empty());
 }
 
 /// Two buildings, B0 with floors F0 and F1, B1 with F0; places under them.
@@ -336,6 +365,62 @@ fn the_walk_filter_keeps_the_place_through_an_unclear_frame_and_follows_a_real_c
     // A posterior of the wrong length starts the walk over instead of failing.
     assert_eq!(filter.step(&[0.5, 0.5], Some(600.4)), vec![0.5, 0.5]);
     assert_eq!(filter.step(&unclear, Some(600.8)), unclear.to_vec());
+}
+
+#[test]
+fn the_smoother_settles_a_turn_from_the_frames_after_it_and_tells_every_frame_once() {
+    let sure_0 = [0.9, 0.05, 0.05];
+    let leaning_1 = [0.3, 0.6, 0.1];
+    let sure_1 = [0.05, 0.9, 0.05];
+    let walk = [sure_0, sure_0, sure_0, leaning_1, sure_1, sure_1, sure_1];
+    let time = |k: usize| Some(0.4 * k as f64);
+    // The filter holds on to place 0 at the turn's first frame ...
+    let mut filter = PlaceFilter::new(&sticky());
+    let filtered: Vec<Vec<f32>> = walk
+        .iter()
+        .enumerate()
+        .map(|(k, p)| filter.step(p, time(k)))
+        .collect();
+    assert_eq!(argmax(&filtered[3]), 0);
+    // ... which the frames after it show to be place 1's.
+    let mut whole = PlaceSmoother::new(&sticky(), f64::INFINITY);
+    for (k, p) in walk.iter().enumerate() {
+        assert!(whole.push(p, time(k)).is_empty());
+    }
+    let smoothed = whole.finish();
+    let best: Vec<usize> = smoothed.iter().map(|b| argmax(b)).collect();
+    assert_eq!(best, [0, 0, 0, 1, 1, 1, 1]);
+    for b in &smoothed {
+        assert!((b.iter().sum::<f32>() - 1.0).abs() < 1e-5, "{b:?}");
+    }
+    // The last frame has nothing after it: its smoothed belief is the filter's.
+    assert!(close(&smoothed[6], &filtered[6]));
+    // With no lag the smoother is the filter; with 0.8 s each frame is told two frames late.
+    let mut live = PlaceSmoother::new(&sticky(), 0.0);
+    let mut late = PlaceSmoother::new(&sticky(), 0.8);
+    let mut told_late = Vec::new();
+    for (k, p) in walk.iter().enumerate() {
+        let now = live.push(p, time(k));
+        assert!(now.len() == 1 && close(&now[0], &filtered[k]), "frame {k}");
+        let told = late.push(p, time(k));
+        assert_eq!(told.len(), usize::from(k >= 2), "frame {k}");
+        told_late.extend(told);
+    }
+    told_late.extend(late.finish());
+    assert_eq!(told_late.len(), walk.len());
+    assert_eq!(argmax(&told_late[3]), 1);
+    // A posterior of the wrong length ends the walk: the frames held are told, then it.
+    let mut held = PlaceSmoother::new(&sticky(), f64::INFINITY);
+    held.push(&sure_0, time(0));
+    held.push(&sure_0, time(1));
+    let told = held.push(&[0.5, 0.5], time(2));
+    assert_eq!(told.len(), 3);
+    assert_eq!(told[2], vec![0.5, 0.5]);
+    assert!(held.finish().is_empty());
+}
+
+fn close(a: &[f32], b: &[f32]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6)
 }
 
 fn argmax(v: &[f32]) -> usize {

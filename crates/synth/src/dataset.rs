@@ -11,7 +11,7 @@ use crate::error::{Result, SynthError};
 use crate::import::{ImportOptions, load};
 use crate::procedural::default_world;
 use crate::render::{RenderMode, RenderOptions, RenderScene, Renderer};
-use crate::trajectory::{self, Direction, PosedFrame, Rig, WalkConfig};
+use crate::trajectory::{self, PosedFrame, Rig, WalkConfig};
 use crate::variants::{self, Crowd};
 use crate::world::{Variant, World};
 use data::native::{self, DatasetInfo, Generator, Label, Splits};
@@ -351,11 +351,7 @@ fn write_metadata(
                 corridor: place
                     .corridor
                     .map_or_else(|| "none".into(), |c| format!("C{c}")),
-                direction: match s.frame.direction {
-                    Some(Direction::Forward) => "fwd".into(),
-                    Some(Direction::Backward) => "back".into(),
-                    None => "none".into(),
-                },
+                direction: s.frame.direction.map_or("none", |d| d.name()).into(),
             })
         })
         .collect();

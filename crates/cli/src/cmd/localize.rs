@@ -12,6 +12,7 @@ use learn::place::{PlaceLocalizer, PlaceMeta, PlacePrediction};
 use learn::seq::{SeqLocalizer, SeqMeta, SeqTracker};
 use learn::{Estimate, Localizer};
 use serde::Serialize;
+use std::collections::VecDeque;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -70,9 +71,14 @@ pub struct LocalizeArgs {
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
     /// Each frame alone: a sequence model (trained with `train --window`) uses only its
-    /// single-frame network, and a place model places every frame without the frames before it.
+    /// single-frame network, and a place model places every frame without the frames around it.
     #[arg(long)]
     single: bool,
+    /// Seconds a place model waits before it tells a frame's place, taking in the frames of
+    /// that time after it (lines come out that much later): 0 answers each frame from the frames
+    /// before it only, as live; `inf` waits for the end of each walk.
+    #[arg(long, value_name = "SECONDS", default_value_t = learn::place::DEFAULT_LAG_S)]
+    place_lag: f64,
     /// Scene cuts where a sequence model and the place filter start over (a cut list or
     /// `scenecut --json` output: positions of frames in the input, from 0). A native dataset's
     /// own cuts.csv, new sequences and gaps in frame numbers always start them over.
@@ -228,11 +234,16 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
                 .with_seed(args.mc_seed),
         )),
     };
+    if args.place_lag.is_nan() || args.place_lag < 0.0 {
+        bail!("--place-lag {}: must be 0 or more seconds", args.place_lag);
+    }
     // A place model follows the walk unless each frame is to stand alone.
     let mut place_tracker = places
         .as_ref()
         .filter(|_| !args.single)
-        .map(|loc| (loc, loc.tracker()));
+        .map(|loc| (loc, loc.tracker(args.place_lag)));
+    // Lines whose place is still to be told (the tracker's lag), oldest first.
+    let mut waiting: VecDeque<(usize, PoseLine)> = VecDeque::new();
     let cuts = match &args.cuts {
         Some(path) => data::cuts::read(path)?,
         None => Vec::new(),
@@ -276,17 +287,21 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
         }
         .transpose()
         .with_context(|| format!("frame {}", item.name))?;
-        let place = match &mut place_tracker {
+        let (place, told) = match &mut place_tracker {
             Some((loc, tracker)) => {
                 if starts_over {
-                    tracker.reset();
+                    tell(&mut waiting, tracker.finish(), args.format, w)?;
                 }
-                Some(tracker.step(&loc.view(&img)?, item.t))
+                let told = tracker
+                    .step(&loc.view(&img)?, item.t)
+                    .with_context(|| format!("frame {}", item.name))?;
+                (None, Some(told))
             }
-            None => places.as_ref().map(|p| p.predict(&img)),
-        }
-        .transpose()
-        .with_context(|| format!("frame {}", item.name))?;
+            None => {
+                let place = places.as_ref().map(|p| p.predict(&img)).transpose();
+                (place.with_context(|| format!("frame {}", item.name))?, None)
+            }
+        };
         let line = PoseLine {
             frame: item.name,
             seq: item.seq,
@@ -295,8 +310,23 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
             place: place.as_ref().map(PlaceField::of),
             latency_ms: t0.elapsed().as_secs_f64() * 1e3,
         };
-        line.write(args.format, index, w)?;
+        match told {
+            Some(told) => {
+                waiting.push_back((index, line));
+                tell(&mut waiting, told, args.format, w)?;
+            }
+            None => line.write(args.format, index, w)?,
+        }
         done += 1;
+    }
+    if let Some((_, tracker)) = &mut place_tracker {
+        tell(&mut waiting, tracker.finish(), args.format, w)?;
+    }
+    if let Some((_, line)) = waiting.front() {
+        bail!(
+            "frame {}: the place tracker never told its place",
+            line.frame
+        );
     }
     if let Some(path) = &args.out {
         data::io::write_atomic(path, |f| f.write_all(&buffer))?;
@@ -309,6 +339,23 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
             bad.len() + done,
             bad[0]
         );
+    }
+    Ok(())
+}
+
+/// Writes the waiting lines whose places have been `told` (oldest first, one place per line).
+fn tell(
+    waiting: &mut VecDeque<(usize, PoseLine)>,
+    told: Vec<PlacePrediction>,
+    format: OutFormat,
+    w: &mut dyn Write,
+) -> Result<()> {
+    for place in told {
+        let (index, mut line) = waiting
+            .pop_front()
+            .context("the place tracker told more places than frames it was given")?;
+        line.place = Some(PlaceField::of(&place));
+        line.write(format, index, w)?;
     }
     Ok(())
 }

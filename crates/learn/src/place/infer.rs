@@ -11,7 +11,8 @@ use image::DynamicImage;
 use imgproc::view::{View, ViewSpec};
 
 use super::{
-    PLACE_BPK, PLACE_TOML, PlaceFilter, PlaceMeta, PlaceNet, argmax, decode, joint, place_posterior,
+    PLACE_BPK, PLACE_TOML, PlaceMeta, PlaceNet, PlaceSmoother, argmax, decode, joint,
+    place_posterior,
 };
 use crate::checkpoint;
 use crate::infer::{CHUNK, pack_views};
@@ -107,28 +108,31 @@ impl PlaceLocalizer {
         .collect())
     }
 
-    /// A tracker that places the frames of one walk at a time, each given the frames before it.
-    pub fn tracker(&self) -> PlaceTracker<'_> {
+    /// A tracker that places the frames of one walk at a time, each given the frames before it
+    /// and those of the `lag_s` seconds after it (0: answered at once, as live; see
+    /// [`PlaceSmoother`]).
+    pub fn tracker(&self, lag_s: f64) -> PlaceTracker<'_> {
         let tree = self.meta.classes.tree();
         // PlaceMeta::read checked that the motion model has a row and column per place.
-        let filter = match (&tree, &self.meta.transitions) {
-            (Some(_), Some(t)) => Some(PlaceFilter::new(t)),
+        let smoother = match (&tree, &self.meta.transitions) {
+            (Some(_), Some(t)) => Some(PlaceSmoother::new(t, lag_s)),
             _ => None,
         };
         PlaceTracker {
             loc: self,
             tree,
-            filter,
+            smoother,
         }
     }
 
-    /// Places of the frames of recorded walks, in time order, each given the frames of its walk
-    /// up to it (as a [`PlaceTracker`] would give them live, in batches for speed): `frames`
-    /// gives each view's time in seconds and whether it starts a new walk.
+    /// Places of the frames of recorded walks, in time order, as a [`PlaceTracker`] with
+    /// `lag_s` seconds of lag would tell them (in batches for speed): `frames` gives each
+    /// view's time in seconds and whether it starts a new walk.
     pub fn predict_walks(
         &self,
         views: &[View],
         frames: &[WalkFrame],
+        lag_s: f64,
     ) -> Result<Vec<PlacePrediction>> {
         if views.len() != frames.len() {
             return Err(LearnError::Input(format!(
@@ -139,17 +143,16 @@ impl PlaceLocalizer {
         }
         let inputs = pack_views(views, self.meta.input, &self.meta.view)?;
         let probs = head_probs(&self.net, &inputs, self.meta.input, &self.device)?;
-        let mut tracker = self.tracker();
-        Ok(probs
-            .iter()
-            .zip(frames)
-            .map(|(p, frame)| {
-                if frame.starts_walk {
-                    tracker.reset();
-                }
-                tracker.take(p, frame.t)
-            })
-            .collect())
+        let mut tracker = self.tracker(lag_s);
+        let mut out = Vec::with_capacity(views.len());
+        for (p, frame) in probs.iter().zip(frames) {
+            if frame.starts_walk {
+                out.extend(tracker.finish());
+            }
+            out.extend(tracker.take(p, frame.t));
+        }
+        out.extend(tracker.finish());
+        Ok(out)
     }
 
     /// A prediction with names from class indices and probabilities.
@@ -179,33 +182,41 @@ pub struct WalkFrame {
     pub starts_walk: bool,
 }
 
-/// A place model following one walk (see [`crate::place::PlaceFilter`]): each frame's place
-/// given the frames since the last [`PlaceTracker::reset`]. A model trained before place
-/// filtering (no motion model in `place.toml`), or with class lists that do not nest, places
-/// each frame alone.
+/// A place model following one walk (see [`PlaceSmoother`]): each frame's place given the
+/// frames since the walk began and those of the tracker's lag after it. Places come back in
+/// frame order, each once, up to the lag late: [`PlaceTracker::step`] gives those now told,
+/// [`PlaceTracker::finish`] the rest of the walk. A model trained before place filtering (no
+/// motion model in `place.toml`), or with class lists that do not nest, places each frame alone
+/// and at once.
 #[derive(Debug)]
 pub struct PlaceTracker<'a> {
     loc: &'a PlaceLocalizer,
     tree: Option<Vec<[usize; 2]>>,
-    filter: Option<PlaceFilter>,
+    smoother: Option<PlaceSmoother>,
 }
 
 impl PlaceTracker<'_> {
-    /// Whether frames are placed given the ones before them (the model has a motion model).
+    /// Whether frames are placed given the ones around them (the model has a motion model).
     pub fn filters(&self) -> bool {
-        self.filter.is_some()
+        self.smoother.is_some()
     }
 
-    /// Forgets the walk: the next frame starts a new one.
-    pub fn reset(&mut self) {
-        if let Some(f) = &mut self.filter {
-            f.reset();
-        }
+    /// Ends the walk: the places of its frames not yet told, in order. The next frame starts a
+    /// new walk.
+    pub fn finish(&mut self) -> Vec<PlacePrediction> {
+        let (Some(tree), Some(smoother)) = (&self.tree, &mut self.smoother) else {
+            return Vec::new();
+        };
+        let told = smoother.finish();
+        told.iter()
+            .map(|belief| self.loc.named(decode(belief, tree)))
+            .collect()
     }
 
-    /// The place of the next frame of the walk, `view` (made with the model's view) seen at
-    /// time `t` seconds.
-    pub fn step(&mut self, view: &View, t: Option<f64>) -> Result<PlacePrediction> {
+    /// Takes in the next frame of the walk, `view` (made with the model's view) seen at time
+    /// `t` seconds, and returns the places now told: this frame's and earlier ones' whose lag
+    /// has run out, oldest first.
+    pub fn step(&mut self, view: &View, t: Option<f64>) -> Result<Vec<PlacePrediction>> {
         let meta = &self.loc.meta;
         let inputs = pack_views(std::slice::from_ref(view), meta.input, &meta.view)?;
         let probs = head_probs(&self.loc.net, &inputs, meta.input, &self.loc.device)?;
@@ -216,15 +227,18 @@ impl PlaceTracker<'_> {
     }
 
     /// Takes in one frame's head probabilities.
-    fn take(&mut self, probs: &[Vec<f32>; 3], t: Option<f64>) -> PlacePrediction {
-        let p = match (&self.tree, &mut self.filter) {
-            (Some(tree), Some(filter)) => {
+    fn take(&mut self, probs: &[Vec<f32>; 3], t: Option<f64>) -> Vec<PlacePrediction> {
+        match (&self.tree, &mut self.smoother) {
+            (Some(tree), Some(smoother)) => {
                 let rows = [&probs[0][..], &probs[1][..], &probs[2][..]];
-                decode(&filter.step(&place_posterior(rows, tree), t), tree)
+                smoother
+                    .push(&place_posterior(rows, tree), t)
+                    .iter()
+                    .map(|belief| self.loc.named(decode(belief, tree)))
+                    .collect()
             }
-            (tree, _) => read_heads(probs, tree.as_deref()),
-        };
-        self.loc.named(p)
+            (tree, _) => vec![self.loc.named(read_heads(probs, tree.as_deref()))],
+        }
     }
 }
 

@@ -39,7 +39,7 @@ pub use infer::{PlaceLocalizer, PlacePrediction, PlaceTracker, WalkFrame};
 pub use train::{
     PlaceConfig, PlaceEvent, PlaceLoaded, PlaceSplit, PlaceSummary, accuracy, train_place,
 };
-pub use walk::{PlaceFilter, PlaceTransitions};
+pub use walk::{PlaceFilter, PlaceSmoother, PlaceTransitions};
 
 /// File name of the place model's description.
 pub const PLACE_TOML: &str = "place.toml";
@@ -49,6 +49,12 @@ pub const PLACE_BPK: &str = "place.bpk";
 pub const PLACE_STATE_DIR: &str = "place-state";
 /// Layout version of `place.toml`.
 pub const PLACE_FORMAT: u32 = 1;
+
+/// How long `localize` waits before it tells a frame's place, seconds: the frames of that time
+/// after it settle a turn the frames before it cannot (see [`PlaceSmoother`]). On the study's
+/// held-out walks (frames 0.4 s apart; 10-frame and 40-frame walks) a lag of 1.2 s kept 76–92 %
+/// of the whole walk's gain over the causal filter, and 2 s kept 91–97 %.
+pub const DEFAULT_LAG_S: f64 = 2.0;
 
 /// The levels of a place, in head order.
 pub const LEVELS: [&str; 3] = ["building", "floor", "corridor"];

@@ -243,23 +243,34 @@ impl WalkConfig {
     }
 }
 
-/// Which way the camera faces along a corridor, relative to the corridor's `axis`: a label that
-/// can be learned from the image, because the view down a corridor differs by direction.
+/// Which way the camera faces in a corridor, relative to the corridor's `axis`: a label that can
+/// be learned from the image, because the view down a corridor differs by direction, and a view
+/// of one of its walls differs from both.
+///
+/// Why three and not two: a walker who turns to a door faces the corridor's wall square on, and a
+/// two-way label would then hang on a degree or two of head sway. In the study's held-out walks,
+/// building 0's frames within 7.5° of square on were labelled against the network's answer in
+/// over a third of cases (a coin toss the image cannot settle), and they were about 60 % of the
+/// direction errors left after smoothing along the walk. Split at 45°, the boundaries fall where
+/// walkers seldom look.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Direction {
-    /// Facing along the axis (`cos(heading − axis) ≥ 0`).
+    /// Facing along the axis, within 45° (`cos(heading − axis) > cos 45°`).
     Forward,
-    /// Facing against the axis.
+    /// Facing against the axis, within 45°.
     Backward,
+    /// Facing one of the corridor's walls, more across it than along.
+    Across,
 }
 
 impl Direction {
-    /// The label as written to `labels.csv`: `forward` or `backward`.
+    /// The label as written to `labels.csv`: `fwd`, `back` or `across`.
     pub fn name(&self) -> &'static str {
         match self {
-            Direction::Forward => "forward",
-            Direction::Backward => "backward",
+            Direction::Forward => "fwd",
+            Direction::Backward => "back",
+            Direction::Across => "across",
         }
     }
 }
@@ -271,11 +282,13 @@ pub fn direction_of(place: &Place, heading: f64) -> Option<Direction> {
     if place.kind != PlaceKind::Corridor {
         return None;
     }
-    let axis = f64::from(place.axis?);
-    Some(if (heading - axis).cos() >= 0.0 {
+    let along = (heading - f64::from(place.axis?)).cos();
+    Some(if along > std::f64::consts::FRAC_1_SQRT_2 {
         Direction::Forward
-    } else {
+    } else if along < -std::f64::consts::FRAC_1_SQRT_2 {
         Direction::Backward
+    } else {
+        Direction::Across
     })
 }
 
