@@ -249,10 +249,10 @@ impl WalkConfig {
 ///
 /// Why three and not two: a walker who turns to a door faces the corridor's wall square on, and a
 /// two-way label would then hang on a degree or two of head sway. In the study's held-out walks,
-/// building 0's frames within 7.5° of square on were labelled against the network's answer in
-/// over a third of cases (a coin toss the image cannot settle), and they were about 60 % of the
-/// direction errors left after smoothing along the walk. Split at 45°, the boundaries fall where
-/// walkers seldom look.
+/// building 0's frames within 7.5° of square on were labelled against the answer smoothed
+/// along the walk in over a third of cases (a coin toss the image cannot settle), and frames
+/// within 22.5° of square on made about 60 % of the direction errors left. Split at 45°, the
+/// boundaries fall where walkers seldom look.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Direction {
