@@ -41,8 +41,9 @@ const WALK_FPS: f64 = 2.5;
 /// 6 epochs the held-out walks' places (session split) were right in 68 % of frames with 9600
 /// training frames, 77 % with 19200 (the quick run), 85 % with 38400, 90.6 % with 76800 (37 min,
 /// 5.6 GB on two cores) and 92.8 % with 153600 (the full run: 74 min, 9.5 GB); with a third
-/// direction per corridor (`across`, see `synth::trajectory::Direction`), 94.7 % (64 min,
-/// 10.4 GB), 95.0 % with the live walk filter and 96.0 % with `localize`'s 2 s lag. The
+/// direction per corridor (`across`, see `synth::trajectory::Direction`), 94.7 % (42 min
+/// alone on the machine, 10.4 GB), 95.0–95.2 % with the live walk filter and 96.0–96.2 % with
+/// `localize`'s 2 s lag (two runs). The
 /// classifier's own default, `place240`, would need 53 GB for 76800 frames (26.5 GB for 38400,
 /// which a 24 GB machine refuses).
 const STUDY_VIEW: &str = "resize=64x48,norm=imagenet";
