@@ -205,66 +205,32 @@ pub fn reframe_view(
     width: usize,
     rng: &mut ChaCha8Rng,
 ) {
-    let zoom = 1.0 + rng.random_range(-REFRAME_ZOOM..REFRAME_ZOOM);
-    let shift_x = rng.random_range(-REFRAME_SHIFT..REFRAME_SHIFT);
-    let shift_y = rng.random_range(-REFRAME_SHIFT..REFRAME_SHIFT);
-    Reframe {
-        zoom,
-        shift_x,
-        shift_y,
+    if height < 2 || width < 2 || view.len() != channels * height * width {
+        return;
     }
-    .apply(view, channels, height, width);
-}
-
-/// One reframing of a view: what [`reframe_view`] draws at random, and what test-time
-/// reframing ([`crate::place::PlaceTta`]) sets.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Reframe {
-    /// Magnification about the view's centre (above 1: the camera a step nearer).
-    pub zoom: f64,
-    /// Shift of the frame to the right, as a fraction of the view's width.
-    pub shift_x: f64,
-    /// Shift of the frame down, as a fraction of the view's height.
-    pub shift_y: f64,
-}
-
-impl Reframe {
-    /// The reframing that changes nothing.
-    pub const IDENTITY: Reframe = Reframe {
-        zoom: 1.0,
-        shift_x: 0.0,
-        shift_y: 0.0,
+    let zoom = 1.0 + rng.random_range(-REFRAME_ZOOM..REFRAME_ZOOM);
+    let dx = rng.random_range(-REFRAME_SHIFT..REFRAME_SHIFT) * width as f64;
+    let dy = rng.random_range(-REFRAME_SHIFT..REFRAME_SHIFT) * height as f64;
+    let (cx, cy) = ((width - 1) as f64 / 2.0, (height - 1) as f64 / 2.0);
+    // Source coordinate of each output column and row, split into a cell and a weight.
+    let sample = |out: usize, centre: f64, shift: f64, len: usize| {
+        let at = ((out as f64 - centre) / zoom + centre + shift).clamp(0.0, (len - 1) as f64);
+        let lo = (at.floor() as usize).min(len - 2);
+        (lo, (at - lo as f64) as f32)
     };
-
-    /// Reframes one view `[C, H, W]` in place (see [`reframe_view`]); a view of fewer than two
-    /// rows or columns, or whose length is not `C·H·W`, is left as it is.
-    pub fn apply(&self, view: &mut [f32], channels: usize, height: usize, width: usize) {
-        if height < 2 || width < 2 || view.len() != channels * height * width {
-            return;
-        }
-        let (dx, dy) = (self.shift_x * width as f64, self.shift_y * height as f64);
-        let (cx, cy) = ((width - 1) as f64 / 2.0, (height - 1) as f64 / 2.0);
-        let zoom = self.zoom;
-        // Source coordinate of each output column and row, split into a cell and a weight.
-        let sample = |out: usize, centre: f64, shift: f64, len: usize| {
-            let at = ((out as f64 - centre) / zoom + centre + shift).clamp(0.0, (len - 1) as f64);
-            let lo = (at.floor() as usize).min(len - 2);
-            (lo, (at - lo as f64) as f32)
-        };
-        let cols: Vec<(usize, f32)> = (0..width).map(|x| sample(x, cx, dx, width)).collect();
-        let rows: Vec<(usize, f32)> = (0..height).map(|y| sample(y, cy, dy, height)).collect();
-        let plane = height * width;
-        let mut source = vec![0.0f32; plane];
-        for c in 0..channels {
-            let channel = &mut view[c * plane..(c + 1) * plane];
-            source.copy_from_slice(channel);
-            for (y, &(y0, fy)) in rows.iter().enumerate() {
-                let (top, bottom) = (&source[y0 * width..], &source[(y0 + 1) * width..]);
-                for (x, &(x0, fx)) in cols.iter().enumerate() {
-                    let upper = top[x0] + fx * (top[x0 + 1] - top[x0]);
-                    let lower = bottom[x0] + fx * (bottom[x0 + 1] - bottom[x0]);
-                    channel[y * width + x] = upper + fy * (lower - upper);
-                }
+    let cols: Vec<(usize, f32)> = (0..width).map(|x| sample(x, cx, dx, width)).collect();
+    let rows: Vec<(usize, f32)> = (0..height).map(|y| sample(y, cy, dy, height)).collect();
+    let plane = height * width;
+    let mut source = vec![0.0f32; plane];
+    for c in 0..channels {
+        let channel = &mut view[c * plane..(c + 1) * plane];
+        source.copy_from_slice(channel);
+        for (y, &(y0, fy)) in rows.iter().enumerate() {
+            let (top, bottom) = (&source[y0 * width..], &source[(y0 + 1) * width..]);
+            for (x, &(x0, fx)) in cols.iter().enumerate() {
+                let upper = top[x0] + fx * (top[x0 + 1] - top[x0]);
+                let lower = bottom[x0] + fx * (bottom[x0 + 1] - bottom[x0]);
+                channel[y * width + x] = upper + fy * (lower - upper);
             }
         }
     }
@@ -412,49 +378,6 @@ mod tests {
         let mut flat = vec![0.25f32; c * h * w];
         reframe_view(&mut flat, c, h, w, &mut jitter_rng(3, 2));
         assert!(flat.iter().all(|&v| (v - 0.25).abs() < 1e-6));
-    }
-
-    #[test]
-    fn a_set_reframing_moves_the_frame_as_it_says() {
-        let (c, h, w) = (1, 12, 16);
-        let view: Vec<f32> = (0..h * w).map(|i| (i % w) as f32).collect();
-        let mut same = view.clone();
-        Reframe::IDENTITY.apply(&mut same, c, h, w);
-        assert_eq!(same, view);
-        // two columns to the right: column x shows column x + 2, the last ones repeat the edge
-        let mut shifted = view.clone();
-        Reframe {
-            shift_x: 2.0 / w as f64,
-            ..Reframe::IDENTITY
-        }
-        .apply(&mut shifted, c, h, w);
-        for (x, v) in shifted[..w].iter().enumerate() {
-            assert!(
-                (v - (x + 2).min(w - 1) as f32).abs() < 1e-5,
-                "column {x}: {v}"
-            );
-        }
-        // zoomed in by 2 about the centre (7.5): column x shows 7.5 + (x − 7.5) / 2
-        let mut zoomed = view.clone();
-        Reframe {
-            zoom: 2.0,
-            ..Reframe::IDENTITY
-        }
-        .apply(&mut zoomed, c, h, w);
-        for (x, v) in zoomed[..w].iter().enumerate() {
-            assert!(
-                (v - (3.75 + x as f32 / 2.0)).abs() < 1e-5,
-                "column {x}: {v}"
-            );
-        }
-        // a view of the wrong length is left alone
-        let mut short = vec![1.0f32; 5];
-        Reframe {
-            zoom: 2.0,
-            ..Reframe::IDENTITY
-        }
-        .apply(&mut short, c, h, w);
-        assert_eq!(short, vec![1.0; 5]);
     }
 
     #[test]

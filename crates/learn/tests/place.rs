@@ -6,10 +6,9 @@ use crate::common;
 use std::path::Path;
 
 use data::native::{Label, NativeDataset, write_metadata};
-use learn::loader::Reframe;
 use learn::place::{
     PlaceConfig, PlaceEvent, PlaceFilter, PlaceLoaded, PlaceLocalizer, PlaceSmoother, PlaceSplit,
-    PlaceTransitions, PlaceTta, WalkFrame, train_place,
+    PlaceTransitions, WalkFrame, train_place,
 };
 use learn::{Arch, LearnError};
 
@@ -171,55 +170,6 @@ fn learns_places_and_inference_reproduces_the_stored_accuracy() {
             (a.corridor.1 - b.corridor.1).abs() < 1e-5,
             "{a:?} against {b:?}"
         );
-    }
-
-    // Test-time reframing: a frame's probabilities are the mean of its copies', so two copies
-    // reframed alike answer as that one reframed view does, and the view alone as without TTA.
-    let shift = Reframe {
-        shift_x: 0.1,
-        ..Reframe::IDENTITY
-    };
-    let twice = PlaceLocalizer::load(&out).unwrap().with_tta(Some(PlaceTta {
-        copies: vec![shift; 2],
-    }));
-    let moved: Vec<_> = views
-        .iter()
-        .map(|v| {
-            let mut m = v.clone();
-            shift.apply(&mut m.data, 3, 24, 32);
-            m
-        })
-        .collect();
-    assert_ne!(moved[0].data, views[0].data);
-    let plain_moved = loc.predict_batch(&moved).unwrap();
-    for (a, b) in twice
-        .predict_batch(&views)
-        .unwrap()
-        .iter()
-        .zip(&plain_moved)
-    {
-        assert_eq!(a.indices, b.indices);
-        assert!(
-            (a.corridor.1 - b.corridor.1).abs() < 1e-5,
-            "{a:?} against {b:?}"
-        );
-    }
-    let itself = PlaceLocalizer::load(&out).unwrap().with_tta(Some(PlaceTta {
-        copies: vec![Reframe::IDENTITY],
-    }));
-    assert_eq!(itself.predict_batch(&views).unwrap(), batch);
-    // the default copies: one answer per frame, as consistent as without them
-    let tta = PlaceLocalizer::load(&out)
-        .unwrap()
-        .with_tta(Some(PlaceTta::default()));
-    let mut tracker = tta.tracker(0.0);
-    for (view, p) in views
-        .iter()
-        .zip(tta.predict_walks(&views, &one_walk, 0.0).unwrap())
-    {
-        let told = tracker.step(view, None).unwrap();
-        assert_eq!(told[0].indices, p.indices);
-        assert!(p.building.1 + 1e-6 >= p.floor.1 && p.floor.1 + 1e-6 >= p.corridor.1);
     }
 
     // resuming to more epochs continues; other settings are refused by name

@@ -8,7 +8,7 @@ use data::formats::{self, Format};
 use data::frames::{self, FrameSource};
 use data::native::{NativeDataset, SplitName};
 use data::{PoseFrame, cambridge, sevenscenes};
-use learn::place::{PlaceLocalizer, PlaceMeta, PlacePrediction, PlaceTta};
+use learn::place::{PlaceLocalizer, PlaceMeta, PlacePrediction};
 use learn::seq::{SeqLocalizer, SeqMeta, SeqTracker};
 use learn::{Estimate, Localizer};
 use serde::Serialize;
@@ -53,9 +53,7 @@ pub struct LocalizeArgs {
     mc: usize,
     /// Test-time augmentation: each frame is also seen as four copies shifted by one 80th of
     /// its width (a slight pan or tilt); the position is their mean and their spread joins
-    /// `sigma_pos_m`, at five times the backbone's cost (single-frame pose models only). A
-    /// place model sees each frame also zoomed in and out by 10 % and averages the three
-    /// (`learn::place::PlaceTta`).
+    /// `sigma_pos_m`, at five times the backbone's cost. Single-frame models only.
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set, value_name = "BOOL")]
     tta: bool,
     /// Seed of the MC-dropout masks: every frame is seen through the same `--mc` thinned
@@ -211,7 +209,7 @@ struct Item {
 /// Runs `indoorloc localize`.
 pub fn run(args: &LocalizeArgs) -> Result<()> {
     let places = if PlaceMeta::exists(&args.model) {
-        Some(PlaceLocalizer::load(&args.model)?.with_tta(args.tta.then(PlaceTta::default)))
+        Some(PlaceLocalizer::load(&args.model)?)
     } else {
         None
     };

@@ -16,7 +16,6 @@ use super::{
 };
 use crate::checkpoint;
 use crate::infer::{CHUNK, pack_views};
-use crate::loader::Reframe;
 use crate::{LearnError, Result};
 
 /// The most likely class of each level of one image, with its probability.
@@ -48,33 +47,6 @@ impl PlacePrediction {
     }
 }
 
-/// Test-time reframing: the network sees each view and a few reframed copies of it
-/// ([`Reframe`], the moves place training draws at random with `reframe`), and a frame's
-/// probabilities at each level are the mean of its copies'. A place should not hang on how
-/// the camera happened to be aimed within a few degrees.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PlaceTta {
-    /// The copies, the view itself ([`Reframe::IDENTITY`]) among them if it should count.
-    pub copies: Vec<Reframe>,
-}
-
-impl Default for PlaceTta {
-    /// The view, zoomed in by 10 % and out by 10 % (the camera a step nearer and further):
-    /// the reframings that helped most. On the place study's held-out walks (4800 frames,
-    /// some lights off; the random-split model after two of its eight epochs), places were right in
-    /// 89.4 % of frames alone, 90.1 % with these, 89.8 % with a 5 % zoom and shifts of 4 %
-    /// left and right, and 89.8 % with three shifts (the view's and 4 % either way).
-    fn default() -> PlaceTta {
-        let zoom = |zoom| Reframe {
-            zoom,
-            ..Reframe::IDENTITY
-        };
-        PlaceTta {
-            copies: vec![Reframe::IDENTITY, zoom(1.1), zoom(0.9)],
-        }
-    }
-}
-
 /// A loaded place model.
 #[derive(Debug)]
 pub struct PlaceLocalizer {
@@ -82,7 +54,6 @@ pub struct PlaceLocalizer {
     meta: PlaceMeta,
     spec: ViewSpec,
     device: Device,
-    tta: Option<PlaceTta>,
 }
 
 impl PlaceLocalizer {
@@ -99,15 +70,7 @@ impl PlaceLocalizer {
             meta,
             spec,
             device,
-            tta: None,
         })
-    }
-
-    /// The same model with test-time reframing (`None`: each view as it is, the default).
-    /// Every way of asking for places (one image, batches, walks, trackers) then uses it.
-    pub fn with_tta(mut self, tta: Option<PlaceTta>) -> PlaceLocalizer {
-        self.tta = tta.filter(|t| !t.copies.is_empty());
-        self
     }
 
     /// The checkpoint's description.
@@ -131,12 +94,18 @@ impl PlaceLocalizer {
 
     /// Places of many views made with this model's view, each frame alone.
     pub fn predict_batch(&self, views: &[View]) -> Result<Vec<PlacePrediction>> {
+        let inputs = pack_views(views, self.meta.input, &self.meta.view)?;
         let tree = self.meta.classes.tree();
-        Ok(self
-            .probs(views)?
-            .iter()
-            .map(|p| self.named(read_heads(p, tree.as_deref())))
-            .collect())
+        Ok(classify(
+            &self.net,
+            &inputs,
+            self.meta.input,
+            tree.as_deref(),
+            &self.device,
+        )?
+        .into_iter()
+        .map(|p| self.named(p))
+        .collect())
     }
 
     /// A tracker that places the frames of one walk at a time, each given the frames before it
@@ -172,7 +141,8 @@ impl PlaceLocalizer {
                 frames.len()
             )));
         }
-        let probs = self.probs(views)?;
+        let inputs = pack_views(views, self.meta.input, &self.meta.view)?;
+        let probs = head_probs(&self.net, &inputs, self.meta.input, &self.device)?;
         let mut tracker = self.tracker(lag_s);
         let mut out = Vec::with_capacity(views.len());
         for (p, frame) in probs.iter().zip(frames) {
@@ -183,42 +153,6 @@ impl PlaceLocalizer {
         }
         out.extend(tracker.finish());
         Ok(out)
-    }
-
-    /// The softmax of each head for each view, averaged over the test-time copies when the
-    /// model has them.
-    fn probs(&self, views: &[View]) -> Result<Vec<[Vec<f32>; 3]>> {
-        let inputs = pack_views(views, self.meta.input, &self.meta.view)?;
-        let Some(tta) = &self.tta else {
-            return head_probs(&self.net, &inputs, self.meta.input, &self.device);
-        };
-        let [c, h, w] = self.meta.input;
-        let per = c * h * w;
-        let mut copies = Vec::with_capacity(inputs.len() * tta.copies.len());
-        for view in inputs.chunks_exact(per) {
-            for reframe in &tta.copies {
-                let start = copies.len();
-                copies.extend_from_slice(view);
-                reframe.apply(&mut copies[start..], c, h, w);
-            }
-        }
-        let probs = head_probs(&self.net, &copies, self.meta.input, &self.device)?;
-        let n = tta.copies.len() as f32;
-        Ok(probs
-            .chunks(tta.copies.len())
-            .map(|group| {
-                let mean = |level: usize| {
-                    let mut sum = vec![0.0f32; group[0][level].len()];
-                    for p in group {
-                        for (s, v) in sum.iter_mut().zip(&p[level]) {
-                            *s += v / n;
-                        }
-                    }
-                    sum
-                };
-                [mean(0), mean(1), mean(2)]
-            })
-            .collect())
     }
 
     /// A prediction with names from class indices and probabilities.
@@ -283,7 +217,9 @@ impl PlaceTracker<'_> {
     /// `t` seconds, and returns the places now told: this frame's and earlier ones' whose lag
     /// has run out, oldest first.
     pub fn step(&mut self, view: &View, t: Option<f64>) -> Result<Vec<PlacePrediction>> {
-        let probs = self.loc.probs(std::slice::from_ref(view))?;
+        let meta = &self.loc.meta;
+        let inputs = pack_views(std::slice::from_ref(view), meta.input, &meta.view)?;
+        let probs = head_probs(&self.loc.net, &inputs, meta.input, &self.loc.device)?;
         let p = probs
             .first()
             .ok_or_else(|| LearnError::Input("no prediction for the image".into()))?;

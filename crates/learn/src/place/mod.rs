@@ -35,7 +35,7 @@ use crate::checkpoint::{DatasetRef, StateFiles};
 use crate::net::{Arch, Backbone, seeded_init};
 use crate::{LearnError, Result};
 
-pub use infer::{PlaceLocalizer, PlacePrediction, PlaceTracker, PlaceTta, WalkFrame};
+pub use infer::{PlaceLocalizer, PlacePrediction, PlaceTracker, WalkFrame};
 pub use train::{
     PlaceConfig, PlaceEvent, PlaceLoaded, PlaceSplit, PlaceSummary, accuracy, train_place,
 };
