@@ -404,20 +404,16 @@ fn aleatoric_variance(coding: &PoseCoding, rows: &[Vec<f32>]) -> f64 {
     var / rows.len().max(1) as f64
 }
 
-/// One [`Estimate`] per `passes` consecutive output rows.
-pub fn estimates(coding: &PoseCoding, rows: &[Vec<f32>], passes: usize) -> Vec<Estimate> {
-    rows.chunks(passes.max(1))
+/// One [`Estimate`] per `1 + mc` consecutive output rows: a plain pass (the pose and its
+/// predicted error scale) then `mc` MC-dropout passes (their spread), weighed as they are.
+pub fn estimates(coding: &PoseCoding, rows: &[Vec<f32>], mc: usize) -> Vec<Estimate> {
+    rows.chunks(1 + mc)
         .map(|group| {
-            let poses: Vec<Pose> = group.iter().map(|r| coding.decode(r)).collect();
-            let (pose, sigma_mc, sigma_rot_deg) = mean_pose(&poses);
-            let sigma_pos_m = (sigma_mc.powi(2) + aleatoric_variance(coding, group)).sqrt();
-            Estimate {
-                pose,
-                pose3: (coding.task == Task::Pose3).then(|| pose.to_pose3(coding.mount)),
-                sigma_pos_m,
-                sigma_rot_deg,
-                passes: if passes > 1 { passes } else { 0 },
+            ImageOutputs {
+                views: group[..1].to_vec(),
+                mc: group[1..].to_vec(),
             }
+            .estimate(coding, &SigmaWeights::UNIT)
         })
         .collect()
 }

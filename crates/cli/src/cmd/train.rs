@@ -129,12 +129,18 @@ pub struct TrainArgs {
     /// Seed of initialisation, shuffling, augmentation and dropout.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Also train a sequence model (CNN+LSTM) over windows of K consecutive frames (10 when
+    /// Also train a sequence model (CNN+LSTM) over windows of K consecutive frames (20 when
     /// K is left out), on the features of the single-frame network (trained first, or reused
     /// with --resume); written beside it (seq.toml, seq.bpk), and used by `localize` on
     /// recordings.
-    #[arg(long, value_name = "K", num_args = 0..=1, default_missing_value = "10")]
+    #[arg(long, value_name = "K", num_args = 0..=1, default_missing_value = "20")]
     window: Option<usize>,
+    /// Dataset the sequence model trains on (default: --data): recordings of the same place
+    /// and camera at the frame rate the model will run at, when --data's training walks are
+    /// sparser (an LSTM learns the motion between frames; training and validation recordings
+    /// that move more than 3x apart per frame are refused).
+    #[arg(long, value_name = "DIR", requires = "window")]
+    seq_data: Option<PathBuf>,
     /// LSTM units of the sequence model.
     #[arg(long, default_value_t = 256)]
     lstm_units: usize,
@@ -190,7 +196,7 @@ impl TrainArgs {
     /// The sequence model's configuration, when --window asks for one.
     pub fn seq_config(&self) -> Option<SeqConfig> {
         let window = self.window?;
-        let mut cfg = SeqConfig::new(&self.data, &self.out);
+        let mut cfg = SeqConfig::new(self.seq_data.as_ref().unwrap_or(&self.data), &self.out);
         cfg.window = window;
         cfg.hidden = self.lstm_units;
         cfg.epochs = self.seq_epochs;
@@ -489,10 +495,10 @@ mod tests {
     }
 
     #[test]
-    fn window_alone_means_ten_frames_and_the_sequence_shares_beta_and_dropout() {
+    fn window_alone_means_twenty_frames_and_the_sequence_shares_beta_and_dropout() {
         assert!(parse(&[]).seq_config().is_none());
         let cfg = parse(&["--window"]).seq_config();
-        assert_eq!(cfg.as_ref().map(|c| c.window), Some(10));
+        assert_eq!(cfg.as_ref().map(|c| c.window), Some(20));
         let cfg = parse(&["--window", "4", "--beta", "600", "--dropout", "0.3"]).seq_config();
         let cfg = cfg.as_ref();
         assert_eq!(
@@ -501,6 +507,11 @@ mod tests {
         );
         let cfg = parse(&["--window", "4", "--seq-beta", "50"]).seq_config();
         assert_eq!(cfg.and_then(|c| c.beta), Some(50.0));
+        // the sequence part's own recordings, or the network's
+        let own = parse(&["--window", "--seq-data", "walks"]).seq_config();
+        assert_eq!(own.map(|c| c.data), Some(PathBuf::from("walks")));
+        let same = parse(&["--window"]).seq_config();
+        assert_eq!(same.map(|c| c.data), Some(PathBuf::from("d")));
     }
 
     #[test]

@@ -1,9 +1,12 @@
 //! Sequence-model inference: whole recordings at once, or live frame by frame.
 //!
-//! Monte-Carlo dropout works as for the single-frame model: `N` passes are `N` streams side
-//! by side (the LSTM's batch), each frame's features masked by its own Bernoulli mask per pass,
-//! each stream carrying its own state. The estimate of a frame is the mean and spread of the
-//! `N` outputs ([`crate::infer::estimates`]).
+//! The pose is the plain stream's, as the single-frame model's is its plain pass: the LSTM over
+//! the unmasked features. Monte-Carlo dropout adds `N` more streams side by side (the LSTM's
+//! batch), each frame's features masked by its own Bernoulli mask per stream, each stream
+//! carrying its own state; their spread and the plain stream's predicted error scale make the
+//! frame's sigma ([`crate::infer::estimates`]). The mean of the `N` masked streams was the pose
+//! before: every masked stream drifts from the features the LSTM trusts, and their mean was
+//! measurably worse than the plain stream.
 
 use std::ops::Range;
 use std::path::Path;
@@ -18,7 +21,7 @@ use super::meta::{SEQ_BPK, SEQ_TOML, SeqMeta};
 use super::stream::SeqStream;
 use crate::checkpoint;
 use crate::infer::{self, Estimate, Localizer};
-use crate::net::mc;
+use crate::net::{PoseNet, mc};
 use crate::{LearnError, Result};
 
 /// A loaded sequence model: the single-frame model of the folder and the LSTM on its features.
@@ -80,12 +83,13 @@ impl SeqLocalizer {
         &self.meta
     }
 
-    /// Dropout probability of `mc_passes` passes: the model's for more than one, else none.
-    fn dropout(&self, mc_passes: usize) -> f64 {
-        if mc_passes > 1 {
-            self.meta.dropout
+    /// The MC-dropout streams of `mc_passes` beside the plain one: none for fewer than two or
+    /// a model without dropout.
+    fn mc_streams(&self, mc_passes: usize) -> usize {
+        if mc_passes > 1 && self.meta.dropout > 0.0 {
+            mc_passes
         } else {
-            0.0
+            0
         }
     }
 
@@ -105,20 +109,18 @@ impl SeqLocalizer {
             self.device(),
         )?;
         let mut rng = ChaCha8Rng::seed_from_u64(self.base.seed());
+        let mc = self.mc_streams(mc_passes);
         let rows = run_outputs(
             &self.head,
+            self.base.net(),
             &features,
             width,
-            mc_passes.max(1),
-            self.dropout(mc_passes),
+            mc,
+            self.meta.dropout,
             &mut rng,
             self.device(),
         )?;
-        Ok(infer::estimates(
-            &self.base.meta().coding,
-            &rows,
-            mc_passes.max(1),
-        ))
+        Ok(infer::estimates(&self.base.meta().coding, &rows, mc))
     }
 
     /// Poses of `views` made of several recordings: each range of `runs` (in order, covering
@@ -145,8 +147,8 @@ impl SeqLocalizer {
         SeqTracker {
             loc: self,
             stream: self.stream.clone(),
-            passes: mc_passes.max(1),
-            p: self.dropout(mc_passes),
+            mc: self.mc_streams(mc_passes),
+            p: self.meta.dropout,
             rng: ChaCha8Rng::seed_from_u64(self.base.seed()),
         }
     }
@@ -167,7 +169,8 @@ impl SeqLocalizer {
 pub struct SeqTracker<'a> {
     loc: &'a SeqLocalizer,
     stream: SeqStream,
-    passes: usize,
+    /// MC-dropout streams beside the plain one.
+    mc: usize,
     p: f64,
     rng: ChaCha8Rng,
 }
@@ -179,21 +182,22 @@ impl SeqTracker<'_> {
         let inputs = base.pack(std::slice::from_ref(view))?;
         let device = self.loc.device();
         let (features, f) = infer::feature_rows(base.net(), &inputs, base.meta().input, device)?;
-        let n = self.passes;
+        let n = 1 + self.mc;
         let mut x = Vec::with_capacity(n * f);
         for _ in 0..n {
             x.extend_from_slice(&features);
         }
-        if self.p > 0.0 {
-            let mask = mc::dropout_mask(n, f, self.p, &mut self.rng);
-            x.iter_mut().zip(&mask).for_each(|(v, m)| *v *= m);
+        if self.mc > 0 {
+            let mask = mc::dropout_mask(self.mc, f, self.p, &mut self.rng);
+            x[f..].iter_mut().zip(&mask).for_each(|(v, m)| *v *= m);
         }
-        let out = self.stream.step(&x, n)?;
+        let (frames, _) = frames_of(base.net(), &x, f, device)?;
+        let out = self.stream.step(&frames, n)?;
         let rows: Vec<Vec<f32>> = out
             .chunks_exact(self.stream.outputs())
             .map(<[f32]>::to_vec)
             .collect();
-        infer::estimates(&base.meta().coding, &rows, n)
+        infer::estimates(&base.meta().coding, &rows, self.mc)
             .pop()
             .ok_or_else(|| LearnError::Input("no estimate for the frame".into()))
     }
@@ -211,14 +215,43 @@ impl SeqTracker<'_> {
     }
 }
 
-/// Outputs of the head over one run of `T` frames' features (`T · width` values): `passes`
-/// streams, each frame's features masked with probability `p` per pass; rows frame-major
-/// (`T · passes` rows, frame `t`'s passes together), as [`infer::estimates`] takes them.
-pub(super) fn run_outputs(
-    head: &SeqHead,
+/// Each row of `features` (`n · width` values) followed by the single-frame head's plain
+/// outputs for it: the frames the LSTM reads ([`SeqHead::forward`]), and their width.
+pub(super) fn frames_of(
+    net: &PoseNet,
     features: &[f32],
     width: usize,
-    passes: usize,
+    device: &Device,
+) -> Result<(Vec<f32>, usize)> {
+    let n = features.len() / width.max(1);
+    let mut frames = Vec::new();
+    let mut frame_width = width;
+    for start in (0..n).step_by(infer::CHUNK) {
+        let b = infer::CHUNK.min(n - start);
+        let part = &features[start * width..(start + b) * width];
+        let x = Tensor::<2>::from_data(TensorData::new(part.to_vec(), [b, width]), device);
+        let single = infer::rows_of(net.head_plain(x))?;
+        for (row, out) in part.chunks_exact(width).zip(&single) {
+            frames.extend_from_slice(row);
+            frames.extend_from_slice(out);
+            frame_width = width + out.len();
+        }
+    }
+    Ok((frames, frame_width))
+}
+
+/// Outputs of the head over one run of `T` frames' features (`T · width` values): the plain
+/// stream and `mc` streams whose every frame's features are masked with probability `p`
+/// (the single-frame outputs each stream reads are the head's on its masked features); rows
+/// frame-major (`T · (1 + mc)` rows, frame `t`'s plain row then its MC rows), as
+/// [`infer::estimates`] takes them.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn run_outputs(
+    head: &SeqHead,
+    net: &PoseNet,
+    features: &[f32],
+    width: usize,
+    mc: usize,
     p: f64,
     rng: &mut ChaCha8Rng,
     device: &Device,
@@ -227,25 +260,27 @@ pub(super) fn run_outputs(
     if t == 0 {
         return Ok(Vec::new());
     }
-    let mut x = Vec::with_capacity(passes * features.len());
-    for _ in 0..passes {
+    let streams = 1 + mc;
+    let mut x = Vec::with_capacity(streams * features.len());
+    for _ in 0..streams {
         x.extend_from_slice(features);
     }
-    if p > 0.0 {
+    if mc > 0 {
         // frame-major draws, as a tracker draws them frame after frame
-        let mask = mc::dropout_mask(t * passes, width, p, rng);
+        let mask = mc::dropout_mask(t * mc, width, p, rng);
         for frame in 0..t {
-            for pass in 0..passes {
-                let m = &mask[(frame * passes + pass) * width..][..width];
-                let row = &mut x[(pass * t + frame) * width..][..width];
+            for pass in 0..mc {
+                let m = &mask[(frame * mc + pass) * width..][..width];
+                let row = &mut x[((1 + pass) * t + frame) * width..][..width];
                 row.iter_mut().zip(m).for_each(|(v, m)| *v *= m);
             }
         }
     }
-    let x = Tensor::<3>::from_data(TensorData::new(x, [passes, t, width]), device);
+    let (frames, frame_width) = frames_of(net, &x, width, device)?;
+    let x = Tensor::<3>::from_data(TensorData::new(frames, [streams, t, frame_width]), device);
     let (out, _) = head.forward(x, None);
     let [_, _, o] = out.dims();
-    // [passes, T, O] -> [T, passes, O]
-    let out = out.swap_dims(0, 1).reshape([t * passes, o]);
+    // [streams, T, O] -> [T, streams, O]
+    let out = out.swap_dims(0, 1).reshape([t * streams, o]);
     infer::rows_of(out)
 }

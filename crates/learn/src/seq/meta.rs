@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::head::SeqHeadConfig;
 use super::train::SeqConfig;
-use crate::checkpoint::StateFiles;
+use crate::checkpoint::{DatasetRef, StateFiles};
 use crate::{LearnError, Result};
 
 /// File name of the sequence model's description.
@@ -16,8 +16,9 @@ pub const SEQ_TOML: &str = "seq.toml";
 pub const SEQ_BPK: &str = "seq.bpk";
 /// Folder of the sequence model's resume state.
 pub const SEQ_STATE_DIR: &str = "seq-state";
-/// Layout version of `seq.toml`.
-pub const SEQ_FORMAT: u32 = 1;
+/// Layout version of `seq.toml`: 2 since the head corrects the single-frame outputs (a head
+/// of version 1 read features alone).
+pub const SEQ_FORMAT: u32 = 2;
 
 /// Metrics of one finished epoch of the sequence model.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -44,6 +45,10 @@ pub struct SeqMeta {
     pub format: u32,
     /// Content hash of the `model.bpk` whose features the head was trained on.
     pub base_weights_hash: String,
+    /// The dataset the head was trained on (absent in files written before it was recorded,
+    /// when it was always the single-frame model's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dataset: Option<DatasetRef>,
     /// The head to rebuild before loading the weights.
     pub head: SeqHeadConfig,
     /// Dropout on each frame's features (training and MC inference).
@@ -88,7 +93,8 @@ impl SeqMeta {
             return Err(LearnError::corrupt(
                 &path,
                 format!(
-                    "layout version {} (this build reads {SEQ_FORMAT})",
+                    "layout version {} (this build reads {SEQ_FORMAT}); train the sequence part \
+                     again with `train --window`",
                     meta.format
                 ),
             ));

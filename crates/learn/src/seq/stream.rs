@@ -31,7 +31,8 @@ pub(super) struct GateWeights {
 }
 
 /// A live stream through a sequence head: `rows` independent streams side by side (one, or one
-/// per Monte-Carlo pass), each with its own state.
+/// per Monte-Carlo pass), each with its own state. A frame is its features then the
+/// single-frame outputs, which the output adds to ([`super::SeqHead::forward`]).
 #[derive(Clone, Debug)]
 pub struct SeqStream {
     features: usize,
@@ -84,6 +85,12 @@ impl SeqStream {
         if out.rows != h {
             return bad(format!("output layer takes {}, not {h}", out.rows));
         }
+        if out.cols >= f {
+            return bad(format!(
+                "{} outputs, but frames of {f} values hold features and as many single-frame outputs",
+                out.cols
+            ));
+        }
         Ok(SeqStream {
             features: f,
             hidden: h,
@@ -96,8 +103,8 @@ impl SeqStream {
         })
     }
 
-    /// Outputs (`rows · outputs` values, row-major) of the next frame's features (`rows ·
-    /// features` values, row-major), one row per stream.
+    /// Outputs (`rows · outputs` values, row-major) of the next frame (`rows · width` values,
+    /// row-major: each stream's features then its single-frame outputs), one row per stream.
     pub fn step(&mut self, features: &[f32], rows: usize) -> Result<Vec<f32>> {
         let (f, h) = (self.features, self.hidden);
         if features.len() != rows * f || rows == 0 {
@@ -131,8 +138,10 @@ impl SeqStream {
         let y = &self.out * &hs;
         self.state = Some((hs, cs));
         let mut out = Vec::with_capacity(rows * self.outputs);
+        let single_at = f - self.outputs;
         for r in 0..rows {
-            out.extend((0..self.outputs).map(|c| y[(c, r)] + self.out_bias[c]));
+            let single = &features[r * f + single_at..(r + 1) * f];
+            out.extend((0..self.outputs).map(|c| single[c] + y[(c, r)] + self.out_bias[c]));
         }
         Ok(out)
     }

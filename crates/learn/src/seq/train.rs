@@ -24,15 +24,15 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use super::head::{SeqHead, SeqHeadConfig};
-use super::infer::run_outputs;
+use super::infer::{frames_of, run_outputs};
 use super::meta::{SEQ_BPK, SEQ_FORMAT, SEQ_STATE_DIR, SEQ_TOML, SeqEpoch, SeqMeta};
-use crate::checkpoint::{self, MODEL_TOML, StateFiles};
+use crate::checkpoint::{self, DatasetRef, StateFiles};
 use crate::dataset::{self, Samples};
 use crate::head::PoseCoding;
 use crate::infer::{self, Localizer};
 use crate::loader;
 use crate::loss::pose_loss;
-use crate::net::mc;
+use crate::net::{PoseNet, mc};
 use crate::progress::Progress;
 use crate::train::Schedule;
 use crate::window;
@@ -41,7 +41,10 @@ use crate::{LearnError, Result};
 /// Everything [`train_sequence`] needs; [`SeqConfig::new`] gives the defaults.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SeqConfig {
-    /// Native dataset folder: the one the single-frame model was trained on.
+    /// Dataset of the training and validation recordings: the single-frame model's own, or
+    /// another of the same place and camera whose recordings run at the rate the sequence
+    /// model will (see [`MAX_STEP_RATIO`]). Frames the CNN never trained on give the LSTM
+    /// features as noisy as a new frame's.
     pub data: PathBuf,
     /// Checkpoint folder of the single-frame model; the sequence part is written beside it.
     pub model: PathBuf,
@@ -77,14 +80,15 @@ pub struct SeqConfig {
 }
 
 impl SeqConfig {
-    /// Defaults: windows of 10 frames every frame, 256 LSTM units, 10 epochs of 32 windows a
+    /// Defaults: windows of 20 frames every frame (on the quick demo's walks windows of 10
+    /// lost to the single frame on one seed of two: `study sequence --quick`), 256 LSTM units, 10 epochs of 32 windows a
     /// step, AdamW at 1e-3 (cosine decay to 1 %) with weight decay 1e-4, β and dropout of the single-frame model, two
     /// jittered copies, patience 4, seed 0.
     pub fn new(data: impl Into<PathBuf>, model: impl Into<PathBuf>) -> SeqConfig {
         SeqConfig {
             data: data.into(),
             model: model.into(),
-            window: 10,
+            window: 20,
             stride: 1,
             hidden: 256,
             epochs: 10,
@@ -212,6 +216,66 @@ fn frame_keys(samples: &Samples, data: &Path) -> Result<Vec<(String, u64)>> {
         .collect()
 }
 
+/// The dataset's camera must be the one the single-frame model decodes poses for: its task
+/// (6-DoF or 3-DoF) and mount.
+fn check_camera(data: &dataset::TrainData, coding: &PoseCoding, path: &Path) -> Result<()> {
+    let task = crate::head::Task::for_dof(data.info.dof);
+    if task != coding.task || data.info.mount != coding.mount {
+        return Err(LearnError::Mismatch {
+            path: path.to_path_buf(),
+            msg: format!(
+                "a {:?} camera with {} degrees of freedom, but the single-frame model localizes a \
+                 {:?} camera ({:?})",
+                data.info.mount, data.info.dof, coding.mount, coding.task
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Median distance the camera moves between consecutive frames of the `runs` of `poses`,
+/// metres; `None` when no run has two frames.
+fn step_length(poses: &[Pose], runs: &[std::ops::Range<usize>]) -> Option<f64> {
+    let mut steps: Vec<f64> = runs
+        .iter()
+        .flat_map(|run| {
+            poses[run.clone()]
+                .windows(2)
+                .map(|p| (p[1].translation - p[0].translation).norm())
+        })
+        .collect();
+    if steps.is_empty() {
+        return None;
+    }
+    steps.sort_by(f64::total_cmp);
+    Some(steps[steps.len() / 2])
+}
+
+/// How much longer one set's median step between frames may be than the other's.
+pub const MAX_STEP_RATIO: f64 = 3.0;
+
+/// Refuses training recordings whose frames lie much further apart (or much closer) than the
+/// validation recordings': an LSTM learns the motion between frames, so one trained on walks at
+/// 1 Hz lags or overshoots on a camera at 10 Hz (the demo's 1 Hz training walks did exactly
+/// that: the sequence model doubled its backbone's error on the 10 Hz test walk).
+fn check_motion(train: Option<f64>, val: Option<f64>, path: &Path) -> Result<()> {
+    let (Some(train), Some(val)) = (train, val) else {
+        return Ok(());
+    };
+    let (lo, hi) = (train.min(val), train.max(val));
+    if hi < 1e-3 || hi <= MAX_STEP_RATIO * lo {
+        return Ok(());
+    }
+    Err(LearnError::Input(format!(
+        "{}: the training recordings move {train:.3} m between frames (median), the validation \
+         recordings {val:.3} m; a sequence model learns the motion between frames, so it must \
+         train on recordings at the frame rate it runs at (at most {MAX_STEP_RATIO}x apart): \
+         record or render the training walks at the camera's rate, or train the sequence part \
+         on such a dataset (`train --seq-data`)",
+        path.display()
+    )))
+}
+
 /// Stream offset of the jittered copies' generators (epochs use streams `1..=epochs`).
 const JITTER_STREAM: u64 = 1 << 40;
 
@@ -245,6 +309,7 @@ fn training_features(
 
 /// Validation of a head: the recordings run whole from a fresh state, no dropout.
 struct Validation<'a> {
+    net: &'a PoseNet,
     features: Vec<f32>,
     width: usize,
     runs: Vec<std::ops::Range<usize>>,
@@ -260,8 +325,8 @@ impl Validation<'_> {
         let mut rng = ChaCha8Rng::seed_from_u64(0);
         for run in &self.runs {
             let f = &self.features[run.start * self.width..run.end * self.width];
-            let rows = run_outputs(head, f, self.width, 1, 0.0, &mut rng, device)?;
-            let est = infer::estimates(self.coding, &rows, 1);
+            let rows = run_outputs(head, self.net, f, self.width, 0, 0.0, &mut rng, device)?;
+            let est = infer::estimates(self.coding, &rows, 0);
             let errors: Vec<f64> = est
                 .iter()
                 .zip(&self.poses[run.clone()])
@@ -307,6 +372,7 @@ fn optimizer(cfg: &SeqConfig) -> ModuleOptimizer {
 fn fresh(
     cfg: &SeqConfig,
     base: &Localizer,
+    dataset: DatasetRef,
     head_cfg: SeqHeadConfig,
     dropout: f64,
     device: &Device,
@@ -314,6 +380,7 @@ fn fresh(
     let meta = SeqMeta {
         format: SEQ_FORMAT,
         base_weights_hash: base.meta().weights_hash.clone(),
+        dataset: Some(dataset),
         head: head_cfg,
         dropout,
         config: cfg.clone(),
@@ -336,6 +403,7 @@ fn fresh(
 fn resume(
     cfg: &SeqConfig,
     base: &Localizer,
+    dataset: &DatasetRef,
     head_cfg: SeqHeadConfig,
     device: &Device,
 ) -> Result<Start> {
@@ -352,6 +420,16 @@ fn resume(
             "trained on single-frame weights {}, but model.bpk is now {}",
             meta.base_weights_hash,
             base.meta().weights_hash
+        ));
+    }
+    if let Some(trained) = meta.dataset.as_ref().filter(|d| d.hash != dataset.hash) {
+        return mismatch(format!(
+            "trained on dataset '{}' ({}), not on the content of {} ({}); train it again \
+             without resuming",
+            trained.name,
+            trained.hash,
+            dataset.path.display(),
+            dataset.hash
         ));
     }
     if meta.config.resume_key() != cfg.resume_key() || meta.head != head_cfg {
@@ -377,28 +455,17 @@ fn resume(
     })
 }
 
-/// Trains the sequence part of the model in `cfg.model` on `cfg.data` (the single-frame
-/// model's own dataset: its content hash must match) and checkpoints it beside the model after
-/// every epoch. With `cfg.resume` it continues from the last epoch there.
+/// Trains the sequence part of the model in `cfg.model` on `cfg.data` (a dataset of the
+/// single-frame model's camera, read through its view; its training and validation recordings
+/// must move alike between frames) and checkpoints it beside the model after every epoch. With
+/// `cfg.resume` it continues from the last epoch there, on the same data.
 pub fn train_sequence(cfg: &SeqConfig, progress: &mut dyn FnMut(&SeqEvent)) -> Result<SeqSummary> {
     cfg.validate()?;
     let t0 = Instant::now();
     let base = Localizer::load(&cfg.model)?;
     let base_meta = base.meta().clone();
     let data = dataset::load(&cfg.data, base.view_spec(), base_meta.config.seed)?;
-    if data.hash != base_meta.dataset.hash {
-        return Err(LearnError::Mismatch {
-            path: cfg.model.join(MODEL_TOML),
-            msg: format!(
-                "the single-frame model was trained on dataset '{}' ({}), not on the content of {} ({}); \
-                 the sequence part trains on the same data",
-                base_meta.dataset.name,
-                base_meta.dataset.hash,
-                cfg.data.display(),
-                data.hash
-            ),
-        });
-    }
+    check_camera(&data, &base_meta.coding, &cfg.data)?;
     let cuts_path = cfg.data.join(data::native::CUTS_CSV);
     let cuts = if cuts_path.is_file() {
         data::cuts::read(&cuts_path)?
@@ -415,6 +482,19 @@ pub fn train_sequence(cfg: &SeqConfig, progress: &mut dyn FnMut(&SeqEvent)) -> R
             cfg.window
         )));
     }
+    let val_runs = window::runs(&val_keys, &cuts);
+    check_motion(
+        step_length(&data.train.poses, &window::runs(&train_keys, &cuts)),
+        step_length(&data.val.poses, &val_runs),
+        &cfg.data,
+    )?;
+    let dataset = DatasetRef {
+        name: data.info.name.clone(),
+        hash: data.hash.clone(),
+        path: cfg.data.clone(),
+        train_frames: data.train.len(),
+        val_frames: data.val.len(),
+    };
     let (copies, width) = training_features(&base, &data.train, cfg.jittered_copies, cfg.seed)?;
     let input = [data.val.channels, data.val.height, data.val.width];
     let (val_features, _) =
@@ -428,9 +508,10 @@ pub fn train_sequence(cfg: &SeqConfig, progress: &mut dyn FnMut(&SeqEvent)) -> R
     }));
     let coding = base_meta.coding.clone();
     let validation = Validation {
+        net: base.net(),
         features: val_features,
         width,
-        runs: window::runs(&val_keys, &cuts),
+        runs: val_runs,
         poses: &data.val.poses,
         coding: &coding,
     };
@@ -450,13 +531,13 @@ pub fn train_sequence(cfg: &SeqConfig, progress: &mut dyn FnMut(&SeqEvent)) -> R
         mut optim,
         mut stale,
     } = if resuming {
-        let start = resume(cfg, &base, head_cfg, &device)?;
+        let start = resume(cfg, &base, &dataset, head_cfg, &device)?;
         progress(&SeqEvent::Resumed {
             epoch: start.meta.epoch,
         });
         start
     } else {
-        fresh(cfg, &base, head_cfg, dropout, &device)
+        fresh(cfg, &base, dataset, head_cfg, dropout, &device)
     };
     let targets: Vec<Vec<f32>> = data.train.poses.iter().map(|p| coding.target(p)).collect();
     let (k, t_width, o) = (cfg.window, targets[0].len(), head_cfg.outputs);
@@ -485,7 +566,9 @@ pub fn train_sequence(cfg: &SeqConfig, progress: &mut dyn FnMut(&SeqEvent)) -> R
                 let mask = mc::dropout_mask(batch * k, width, dropout, &mut rng);
                 x.iter_mut().zip(&mask).for_each(|(v, m)| *v *= m);
             }
-            let x = Tensor::<3>::from_data(TensorData::new(x, [batch, k, width]), &device);
+            let (frames, frame_width) = frames_of(base.net(), &x, width, &plain)?;
+            let x =
+                Tensor::<3>::from_data(TensorData::new(frames, [batch, k, frame_width]), &device);
             let y = Tensor::<2>::from_data(TensorData::new(y, [batch * k, t_width]), &device);
             let (out, _) = head.forward(x, None);
             let parts = pose_loss(&coding, out.reshape([batch * k, o]), y, beta, None);
@@ -568,4 +651,36 @@ fn save_epoch(
     meta.write(dir)?;
     checkpoint::prune_state(dir, &meta.state);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Poses along the x axis, `step` metres apart.
+    fn walk(n: usize, step: f64) -> Vec<Pose> {
+        (0..n)
+            .map(|i| Pose::from_euler_ypr(0.0, 0.0, 0.0, [i as f64 * step, 0.0, 1.5]).unwrap())
+            .collect()
+    }
+
+    #[test]
+    fn recordings_at_another_rate_than_the_validation_ones_are_refused() {
+        // two runs of a walk at 1.2 m a frame (1 Hz), broken between them
+        let slow = step_length(&walk(10, 1.2), &[0..4, 4..10]);
+        let fast = step_length(&walk(10, 0.12), std::slice::from_ref(&(0..10)));
+        assert_eq!(slow.map(|s| (s * 1e6).round()), Some(1.2e6));
+        let err = check_motion(slow, fast, Path::new("walks")).unwrap_err();
+        let msg = err.to_string();
+        assert!(
+            msg.contains("walks") && msg.contains("1.200 m") && msg.contains("0.120 m"),
+            "{msg}"
+        );
+        assert!(check_motion(fast, slow, Path::new("walks")).is_err());
+        // the same rate, a little faster or slower, a camera standing still, one-frame runs
+        assert!(check_motion(fast, fast.map(|s| 2.5 * s), Path::new("walks")).is_ok());
+        assert!(check_motion(Some(0.0), Some(1e-4), Path::new("walks")).is_ok());
+        assert_eq!(step_length(&walk(3, 1.0), &[0..1, 1..2, 2..3]), None);
+        assert!(check_motion(None, fast, Path::new("walks")).is_ok());
+    }
 }

@@ -122,3 +122,69 @@ pub fn add_depth_and_planes(root: &Path, ids: bool) {
         }
     }
 }
+
+/// Writes six recordings along one path into `root` (`s0`-`s3` train, `s4` val, `s5` test,
+/// `per_seq` frames each at 10 Hz, interleaved so that every sequence lies between the others'
+/// poses), each image's mean colour encoding the pose as [`make_dataset`]'s does, plus a
+/// per-frame colour offset of up to `flicker` levels (a camera's exposure flicker): no single
+/// frame can tell it from a move, a window of frames averages it out. `seed` draws the flicker.
+pub fn make_flickering_walks(root: &Path, per_seq: usize, flicker: f64, seed: u64) {
+    let n_seq = 6;
+    let mut frames = Vec::new();
+    std::fs::create_dir_all(root.join("frames")).unwrap();
+    // a fixed pseudo-random offset per frame and channel, in [-flicker, flicker]
+    let offset = |k: u64| {
+        let k = k ^ seed.wrapping_mul(0xA24B_AED4_963E_E407);
+        let h = k.wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(29) ^ 0xD6E8_FEB8_6659_FD93;
+        let h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        flicker * (2.0 * (h >> 11) as f64 / (1u64 << 53) as f64 - 1.0)
+    };
+    let mut number = 0u64;
+    for s in 0..n_seq {
+        for i in 0..per_seq {
+            let u = (i * n_seq + s) as f64 / (n_seq * per_seq) as f64;
+            let (x, y, h) = (4.0 * u, 0.8 * (3.0 * u).sin(), 1.5 * u - 0.5);
+            let pose = Pose::from_euler_ypr(h, 0.0, 0.0, [x, y, 1.5]).unwrap();
+            let r = 30.0 + 50.0 * x + offset(3 * number);
+            let g = 128.0 + 100.0 * y + offset(3 * number + 1);
+            let b = 128.0 + 100.0 * h.sin() + offset(3 * number + 2);
+            RgbImage::from_fn(W, H, |u, v| {
+                let tex = (((u * 7 + v * 13) % 11) as f64 - 5.0) * 2.0;
+                let c = |m: f64| (m + tex).clamp(0.0, 255.0) as u8;
+                Rgb([c(r), c(g), c(b)])
+            })
+            .save(root.join("frames").join(format!("{number:06}.png")))
+            .unwrap();
+            frames.push(PoseFrame {
+                name: format!("{number:06}"),
+                seq: format!("s{s}"),
+                t: Some(i as f64 / 10.0),
+                pose,
+            });
+            number += 1;
+        }
+    }
+    let info = DatasetInfo {
+        name: "flickering walks".into(),
+        dof: 6,
+        units: "m".into(),
+        frame_rate: 10.0,
+        mount: Mount::Forward,
+        camera: CameraInfo {
+            width: W,
+            height: H,
+            fx: 20.0,
+            fy: 20.0,
+            cx: W as f64 / 2.0,
+            cy: H as f64 / 2.0,
+            distortion: [0.0; 5],
+        },
+        generator: None,
+    };
+    let splits = Splits {
+        train: (0..4).map(|s| format!("s{s}")).collect(),
+        val: vec!["s4".into()],
+        test: vec!["s5".into()],
+    };
+    write_metadata(root, &info, &Trajectory::new(frames), None, None, &splits).unwrap();
+}

@@ -213,6 +213,7 @@ fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
         walks_per_variant: walks,
         frames_per_walk: train_frames.div_ceil(walks * variants.len()),
         train_fps,
+        walk_offset: 0,
         val_frames: test_frames.div_ceil(2),
         test_frames,
         train_mode: args.render_mode.clone(),
@@ -384,7 +385,25 @@ impl Prepared {
     pub fn val_median_pos_m(&self) -> f64 {
         self.summary.val_median_pos_m
     }
+
+    /// Renders the sequence model's training walks ([`ScenePlan::for_sequence_model`], each
+    /// at least `window` frames) into `DIR/seq-data` beside the network's dataset (reused when
+    /// an earlier run left them) and returns the folder.
+    pub fn render_sequence_data(&self, window: usize) -> Result<PathBuf> {
+        let plan = self.setup.scene.for_sequence_model(window);
+        let dir = self
+            .data_dir
+            .parent()
+            .map_or_else(|| PathBuf::from(SEQ_DATA), |p| p.join(SEQ_DATA));
+        let pb = bar(plan.total_frames() as u64, "render");
+        scene::render(&plan, &dir, &|n| pb.set_position(n as u64))?;
+        pb.finish_and_clear();
+        Ok(dir)
+    }
 }
+
+/// Folder of the sequence model's training walks in a demo or study folder.
+pub const SEQ_DATA: &str = "seq-data";
 
 /// Steps 1 and 2 of the demo: renders the dataset and trains the model (each reused when an
 /// earlier run left it), for the demo and for studies that need a trained model.

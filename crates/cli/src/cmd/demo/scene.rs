@@ -52,9 +52,14 @@ pub struct ScenePlan {
     /// Left out of the plan file when the rig's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub train_fps: Option<f64>,
+    /// Added to the seeds of the training walks: other routes through the same zone (the
+    /// sequence model's training walks, [`ScenePlan::for_sequence_model`]). Left out of the
+    /// plan file when 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub walk_offset: u64,
     /// Frames of the validation walk (normal appearance).
     pub val_frames: usize,
-    /// Frames of the held-out test walk.
+    /// Frames of the held-out test walk (none rendered for 0).
     pub test_frames: usize,
     /// Render mode of the training and validation walks (`synth --mode` names); the test walk
     /// is always `textured`, photo-like. Left out of the plan file when `textured`.
@@ -76,6 +81,17 @@ pub struct ScenePlan {
 fn is_false(b: &bool) -> bool {
     !*b
 }
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
+}
+
+/// [`ScenePlan::walk_offset`] of the sequence model's training walks: past every walk seed a
+/// plan uses itself (training walks below 900, validation 900, test 901, cut walks 902).
+pub const SEQUENCE_WALK_OFFSET: u64 = 1000;
+
+/// Walks of the sequence model's training data per walk of the network's.
+pub const SEQUENCE_WALKS_PER_WALK: usize = 3;
 
 /// Frames of a training walk rendered with one draw of randomised materials.
 pub const MATERIAL_CHUNK: usize = 100;
@@ -131,6 +147,35 @@ impl ScenePlan {
                     .map_err(|e| anyhow::anyhow!("variant '{v}': {e}"))
             })
             .collect()
+    }
+
+    /// The sequence model's training data beside this plan's: the same building, camera,
+    /// appearance variants, training frames and validation walk, but training walks at the
+    /// rig's own frame rate, along routes the single-frame network never saw, three times as
+    /// many and a third as long, and no test walk.
+    ///
+    /// A sequence model learns the motion between consecutive frames, so it must train on
+    /// walks at the rate it runs at; the forward camera's network trains on 1 Hz walks
+    /// (`train_fps`), which taught the LSTM 1 Hz steps and doubled its error on the 10 Hz test
+    /// walk. Frames the network never trained on also give the LSTM features as noisy as the
+    /// test walk's, and more routes give it more ways through the zone: on the quick demo's
+    /// held-out walk, windows of 20 frames, seeds 0, 1, 2 of the LSTM, 0.36, 0.46 and 0.40 m
+    /// against the network's 0.52 m (`study sequence --quick`); windows of 10 gave 0.40 and
+    /// 0.57 m (seeds 0, 1), and 0.63 m with only as many walks as the network's.
+    /// `window`: the frames of a training window, which every walk must hold (walks are cut
+    /// into fewer than three where they would be shorter).
+    pub fn for_sequence_model(&self, window: usize) -> ScenePlan {
+        let split = SEQUENCE_WALKS_PER_WALK
+            .min(self.frames_per_walk / window.max(1))
+            .max(1);
+        ScenePlan {
+            train_fps: None,
+            walks_per_variant: self.walks_per_variant * split,
+            frames_per_walk: self.frames_per_walk.div_ceil(split),
+            walk_offset: SEQUENCE_WALK_OFFSET,
+            test_frames: 0,
+            ..self.clone()
+        }
     }
 
     /// Frames the dataset will hold.
@@ -217,7 +262,7 @@ fn sequences(plan: &ScenePlan) -> Result<Vec<Sequence>> {
     let mut seqs = Vec::new();
     for (v, variant) in plan.variants()?.into_iter().enumerate() {
         for w in 0..plan.walks_per_variant {
-            let k = (v * 100 + w) as u64;
+            let k = plan.walk_offset + (v * 100 + w) as u64;
             let mut seq = Sequence::new(
                 format!("train-{}-{w}", variant.name()),
                 variant,
@@ -232,11 +277,13 @@ fn sequences(plan: &ScenePlan) -> Result<Vec<Sequence>> {
         Variant::Normal,
         walk(plan.val_frames, 900)?,
     ));
-    seqs.push(Sequence::new(
-        TEST_SEQ.into(),
-        plan.test_variant()?,
-        walk(plan.test_frames, 901)?,
-    ));
+    if plan.test_frames > 0 {
+        seqs.push(Sequence::new(
+            TEST_SEQ.into(),
+            plan.test_variant()?,
+            walk(plan.test_frames, 901)?,
+        ));
+    }
     Ok(seqs)
 }
 
@@ -631,6 +678,7 @@ mod tests {
             walks_per_variant: 1,
             frames_per_walk: 5,
             train_fps,
+            walk_offset: 0,
             val_frames: 3,
             test_frames: 4,
             train_mode: textured(),
@@ -665,6 +713,53 @@ mod tests {
             assert!(steps(&seq).iter().all(|s| (s - 1.0 / rig_fps).abs() < 1e-9));
         }
         assert!(!toml::to_string(&plan(None))?.contains("train_fps"));
+        assert!(!toml::to_string(&plan(None))?.contains("walk_offset"));
+        Ok(())
+    }
+
+    #[test]
+    fn the_sequence_models_walks_run_at_the_rigs_rate_along_new_routes_with_no_test_walk()
+    -> Result<()> {
+        let rig_fps = WalkConfig::for_rig(rig(&plan(None))).fps;
+        let base = plan(Some(1.0));
+        let cnn = sequences(&base)?;
+        let seq = sequences(&base.for_sequence_model(1))?;
+        // walks too short to cut stay whole
+        assert_eq!(base.for_sequence_model(3).walks_per_variant, 1);
+        let names: Vec<&str> = seq.iter().map(|q| q.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "train-normal-0",
+                "train-normal-1",
+                "train-normal-2",
+                "train-dim-0",
+                "train-dim-1",
+                "train-dim-2",
+                "val"
+            ]
+        );
+        let max_apart = |a: &Sequence, b: &Sequence| {
+            a.frames
+                .iter()
+                .zip(&b.frames)
+                .map(|(x, y)| (x.pose.translation - y.pose.translation).norm())
+                .fold(0.0, f64::max)
+        };
+        for a in &seq {
+            assert!(steps(a).iter().all(|s| (s - 1.0 / rig_fps).abs() < 1e-9));
+            assert_eq!(a.frames.len(), if a.name == "val" { 3 } else { 2 });
+            for b in &cnn {
+                if a.name == "val" && b.name == "val" {
+                    assert!(
+                        max_apart(a, b) < 1e-9,
+                        "the validation walk is the network's"
+                    );
+                } else if b.name.starts_with("train-") {
+                    assert!(max_apart(a, b) > 1e-3, "{} on {}'s route", a.name, b.name);
+                }
+            }
+        }
         Ok(())
     }
 }

@@ -3,7 +3,9 @@
 //!
 //! 1. The demo's network (rendered and trained as `demo` does, reused when `--out` holds it).
 //! 2. The sequence part trained on its frozen features over windows of `--window` frames
-//!    (`train --window`; reused when trained before with the same settings).
+//!    (`train --window`; reused when trained before with the same settings), on walks of their
+//!    own at the camera's frame rate (`DIR/seq-data`, [`demo::scene::ScenePlan::for_sequence_model`]):
+//!    the network's training walks run at 1 Hz, and an LSTM learns the motion between frames.
 //! 3. The held-out test walk localized both ways: every frame alone, and as one recording with
 //!    the LSTM state carried from frame to frame (reset at the walk's start and at any cut).
 //! 4. Live latency: one frame at a time, the single-frame model's `predict` against the
@@ -31,7 +33,7 @@ pub struct SequenceArgs {
     #[command(flatten)]
     scale: super::Scale,
     /// Frames per training window of the sequence model.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 20)]
     window: usize,
     /// LSTM units.
     #[arg(long, default_value_t = 256)]
@@ -92,10 +94,12 @@ pub fn run(args: &SequenceArgs) -> Result<()> {
     let demo_args = super::demo_args(&args.out, &args.scale, &[])?;
     let prepared = demo::render_and_train(&demo_args, &say)?;
     say(&format!(
-        "3/5 the sequence model: windows of {} frames on the network's features",
+        "3/5 the sequence model: windows of {} frames of walks at the camera's rate, on the \
+         network's features",
         args.window
     ));
-    let mut cfg = SeqConfig::new(&prepared.data_dir, &prepared.model_dir);
+    let seq_data = prepared.render_sequence_data(args.window)?;
+    let mut cfg = SeqConfig::new(&seq_data, &prepared.model_dir);
     cfg.window = args.window;
     cfg.hidden = args.lstm_units;
     cfg.epochs = args.seq_epochs;
