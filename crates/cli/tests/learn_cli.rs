@@ -367,3 +367,91 @@ fn a_place_classifier_trains_from_the_command_line() -> TestResult {
     );
     Ok(())
 }
+
+/// Exit code and stderr of a run that must fail with code 2 within 10 s.
+fn refused(args: &[&str]) -> TestResult<String> {
+    let t = std::time::Instant::now();
+    let out = indoorloc(args)?;
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+    assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
+    assert!(
+        t.elapsed().as_secs() < 10,
+        "{args:?} took {:?}",
+        t.elapsed()
+    );
+    Ok(err)
+}
+
+/// A second `train` into a trained folder, a model file asking for gigabytes, a view past the
+/// bound, and a ceiling camera's model on a forward camera's frames: each refused by name.
+#[test]
+fn models_are_not_overwritten_oversized_or_run_on_another_camera() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let (ds, model) = (dir.path().join("ds"), dir.path().join("model"));
+    let (ds_s, model_s) = (ds.to_str().ok_or("path")?, model.to_str().ok_or("path")?);
+    synth_dataset(ds_s, 24, 3)?;
+    let train = [
+        "train",
+        "--data",
+        ds_s,
+        "--out",
+        model_s,
+        "--batch",
+        "8",
+        "--epochs",
+        "1",
+        "--view",
+        "gray,resize=32x24,norm=pm1",
+        "--json",
+    ];
+    json_of(&indoorloc(&train)?)?;
+    let bpk = std::fs::read(model.join("model.bpk"))?;
+    let err = refused(&train)?;
+    assert!(err.contains("--resume") && err.contains("--force"), "{err}");
+    assert_eq!(std::fs::read(model.join("model.bpk"))?, bpk);
+    let mut forced = train.to_vec();
+    forced.push("--force");
+    json_of(&indoorloc(&forced)?)?;
+    // a view past the bound, before any frame is read
+    let mut huge = train.to_vec();
+    huge[10] = "gray,resize=32768x32768";
+    huge.push("--force");
+    assert!(refused(&huge)?.contains("2048"));
+    // hand-edited model files
+    let toml = std::fs::read_to_string(model.join("model.toml"))?;
+    for (from, to, bound) in [
+        ("hidden = 1024", "hidden = 1000000000", "16384"),
+        ("resize=32x24", "resize=32768x32768", "2048"),
+    ] {
+        assert!(toml.contains(from), "{from} not in model.toml");
+        let edited = dir.path().join("edited");
+        std::fs::create_dir_all(&edited)?;
+        std::fs::copy(model.join("model.bpk"), edited.join("model.bpk"))?;
+        std::fs::write(edited.join("model.toml"), toml.replace(from, to))?;
+        let err = refused(&["localize", "--model", edited.to_str().ok_or("p")?, ds_s])?;
+        assert!(err.contains("model.toml") && err.contains(bound), "{err}");
+    }
+    // the forward camera's model on a ceiling camera's frames
+    let ceiling = dir.path().join("ceiling");
+    json_of(&indoorloc(&[
+        "synth",
+        "--out",
+        ceiling.to_str().ok_or("p")?,
+        "--camera",
+        "ceiling",
+        "--frames",
+        "4",
+        "--sequences",
+        "1",
+        "--size",
+        "32x24",
+        "--json",
+    ])?)?;
+    let err = refused(&["localize", "--model", model_s, ceiling.to_str().ok_or("p")?])?;
+    assert!(
+        err.contains("dataset.toml") && err.contains("Ceiling"),
+        "{err}"
+    );
+    Ok(())
+}

@@ -265,6 +265,36 @@ fn bad_inputs_exit_2_naming_the_file_and_marker_free_images_give_empty_lists() -
     let out = indoorloc(&["markers", "detect", s(&bad)])?;
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("not-an-image.jpg"));
+    // a photo cut in half is refused as preprocess and localize refuse it, by detect and by
+    // calibrate (which took it as a view and moved the principal point)
+    let board = std::fs::read(shared_data("chessboard_9x6_left/left01.jpg"))?;
+    let cut = dir.path().join("cut.jpg");
+    std::fs::write(&cut, &board[..board.len() / 2])?;
+    let whole = shared_data("chessboard_9x6_left/left02.jpg");
+    let yml = dir.path().join("cam.yml");
+    for args in [
+        vec!["markers", "detect", s(&cut)],
+        vec![
+            "calibrate",
+            "--board",
+            "9x6",
+            "--square",
+            "1.0",
+            "--out",
+            s(&yml),
+            s(&whole),
+            s(&cut),
+        ],
+    ] {
+        let out = indoorloc(&args)?;
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("cut.jpg") && err.contains("truncated"),
+            "{err}"
+        );
+    }
+    assert!(!yml.exists());
     let blank = dir.path().join("blank.png");
     image::GrayImage::from_pixel(320, 240, image::Luma([250])).save(&blank)?;
     // A real marker photo blurred past reading and one blown out to white: empty lists too.

@@ -126,3 +126,102 @@ fn bad_model_file_exits_2_naming_it() -> TestResult {
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     Ok(())
 }
+
+/// Stderr and exit code of a run that must fail.
+fn failure(args: &[&str]) -> TestResult<(i32, String)> {
+    let o = indoorloc(args)?;
+    Ok((
+        o.status.code().ok_or("killed")?,
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    ))
+}
+
+#[test]
+fn counts_and_rates_past_their_bounds_exit_2_naming_the_bound() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("x");
+    let out = out.to_str().ok_or("path")?;
+    let base = ["synth", "--out", out, "--sequences", "1", "--size", "32x24"];
+    for (extra, bound) in [
+        (&["--frames", "18446744073709551615"][..], "2000000"),
+        (&["--frames", "6", "--fps", "1e-6"][..], "[0.1, 1000]"),
+        (&["--frames", "6", "--fps", "1e-300"][..], "[0.1, 1000]"),
+    ] {
+        let mut args = base.to_vec();
+        args.extend_from_slice(extra);
+        let t = std::time::Instant::now();
+        let (code, err) = failure(&args)?;
+        assert_eq!(code, 2, "{extra:?}: {err}");
+        assert!(
+            err.contains(bound) && err.lines().count() == 1,
+            "{extra:?}: {err}"
+        );
+        assert!(t.elapsed().as_secs() < 10, "{extra:?}");
+    }
+    Ok(())
+}
+
+#[test]
+fn a_used_folder_is_kept_unless_resumed_with_its_settings_or_forced() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("ds");
+    let o = out.to_str().ok_or("path")?;
+    synth(&out, &[])?;
+    // another run into it: refused, nothing touched
+    let before = std::fs::read(out.join("poses.csv"))?;
+    let (code, err) = failure(&[
+        "synth",
+        "--out",
+        o,
+        "--frames",
+        "6",
+        "--sequences",
+        "2",
+        "--size",
+        "32x24",
+    ])?;
+    assert!(code == 2 && err.contains("--force"), "{err}");
+    // a resume with another size: refused (it would mix image sizes)
+    let (code, err) = failure(&[
+        "synth",
+        "--out",
+        o,
+        "--frames",
+        "12",
+        "--sequences",
+        "3",
+        "--size",
+        "32x24",
+        "--resume",
+    ])?;
+    assert!(code == 2 && err.contains("other settings"), "{err}");
+    assert_eq!(std::fs::read(out.join("poses.csv"))?, before);
+    // an interrupted run: a plane image lost, a temporary file left; resume completes it
+    std::fs::remove_file(out.join("planes").join("000007.png"))?;
+    std::fs::write(out.join("frames").join(".000008.png.1-0.tmp"), b"half")?;
+    let v = synth(&out, &["--resume"])?;
+    assert_eq!(v["rendered"], 1);
+    assert!(out.join("planes").join("000007.png").is_file());
+    let tmp = std::fs::read_dir(out.join("frames"))?
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .count();
+    assert_eq!(tmp, 0);
+    // --force replaces it: no frame of the old dataset is left
+    let v = json_of(&indoorloc(&[
+        "synth",
+        "--out",
+        o,
+        "--frames",
+        "4",
+        "--sequences",
+        "1",
+        "--size",
+        "32x24",
+        "--force",
+        "--json",
+    ])?)?;
+    assert_eq!(v["frames"], 4);
+    assert_eq!(std::fs::read_dir(out.join("frames"))?.count(), 4);
+    Ok(())
+}

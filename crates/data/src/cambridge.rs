@@ -68,6 +68,7 @@ pub fn read(path: &Path) -> Result<Trajectory> {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     let mut frames = Vec::new();
+    let mut seen = crate::trajectory::FirstSeen::default();
     for (i, line) in text.lines().enumerate() {
         let line_no = i + 1;
         let fields: Vec<&str> = line.split_whitespace().collect();
@@ -75,7 +76,9 @@ pub fn read(path: &Path) -> Result<Trajectory> {
             || fields.first().is_some_and(|f| f.starts_with('#'))
             || (line_no <= HEADER_LINES && !looks_like_pose(&fields));
         if !skip {
-            frames.push(parse_line(path, line_no, &fields, &stem)?);
+            let frame = parse_line(path, line_no, &fields, &stem)?;
+            seen.check(path, &frame.name, line_no, "line")?;
+            frames.push(frame);
         }
     }
     if frames.is_empty() {

@@ -97,12 +97,14 @@ pub fn read_with_images(path: &Path) -> Result<(Trajectory, Vec<PathBuf>)> {
     let mut out = Vec::with_capacity(frames.len());
     let mut images = Vec::with_capacity(frames.len());
     let mut cameras = Vec::with_capacity(frames.len());
+    let mut seen = crate::trajectory::FirstSeen::default();
     for (i, frame) in frames.iter().enumerate() {
         let ctx = format!("frames[{i}]");
         let obj = frame
             .as_object()
             .ok_or_else(|| DataError::invalid(&path, format!("{ctx} is not an object")))?;
         let (pose_frame, file_path) = parse_frame(&path, &ctx, obj)?;
+        seen.check(&path, file_path, i, "frame")?;
         cameras.push(if CAMERA_KEYS.iter().any(|k| obj.contains_key(*k)) {
             camera(&path, &ctx, &|k| obj.get(k).or_else(|| top.get(k)))?
         } else {

@@ -52,3 +52,78 @@ impl Trajectory {
         self.frames.iter().map(|f| f.pose).collect()
     }
 }
+
+/// Where each frame key (an image name, a timestamp) was first given, so that a reader refuses
+/// a frame given twice: with two poses for one frame, which one is the truth cannot be told,
+/// and the first silently won before.
+#[derive(Debug, Default)]
+pub(crate) struct FirstSeen(std::collections::HashMap<String, usize>);
+
+impl FirstSeen {
+    /// Records `key` at `place` (a line number, or a frame index for JSON), or an error naming
+    /// `path`, the key and both places when it was given before (`what`: "line", "frame").
+    pub(crate) fn check(
+        &mut self,
+        path: &std::path::Path,
+        key: &str,
+        place: usize,
+        what: &str,
+    ) -> crate::Result<()> {
+        match self.0.insert(key.to_string(), place) {
+            Some(first) => Err(crate::DataError::invalid(
+                path,
+                format!("frame '{key}' is given twice ({what}s {first} and {place})"),
+            )),
+            None => Ok(()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod duplicate_tests {
+    use std::path::Path;
+
+    fn refused(path: &Path, read: fn(&Path) -> crate::Result<super::Trajectory>) {
+        let err = read(path).unwrap_err().to_string();
+        assert!(
+            err.contains(&path.display().to_string()) && err.contains("given twice"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_frame_given_twice_with_another_pose_is_refused_by_every_reader() {
+        let dir = tempfile::tempdir().unwrap();
+        let cambridge = dir.path().join("dataset_train.txt");
+        std::fs::write(
+            &cambridge,
+            "Visual Landmark Dataset V1\nImageFile, Camera Position [X Y Z W P Q R]\n\n\
+             seq1/a.png 1 2 3 1 0 0 0\nseq1/b.png 1 2 3 1 0 0 0\nseq1/a.png 5 2 3 1 0 0 0\n",
+        )
+        .unwrap();
+        refused(&cambridge, crate::cambridge::read);
+        let tum = dir.path().join("gt.txt");
+        std::fs::write(
+            &tum,
+            "1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n1.0 4 0 0 0 0 0 1\n",
+        )
+        .unwrap();
+        refused(&tum, crate::tum::read);
+        let nerf = dir.path().join("transforms.json");
+        let frame = |x: f64| {
+            format!(
+                r#"{{"file_path": "images/a.png", "transform_matrix": [[1,0,0,{x}],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}}"#
+            )
+        };
+        std::fs::write(
+            &nerf,
+            format!(
+                r#"{{"camera_angle_x": 1.0, "w": 32, "h": 24, "frames": [{}, {}]}}"#,
+                frame(0.0),
+                frame(1.0)
+            ),
+        )
+        .unwrap();
+        refused(&nerf, crate::nerf::read);
+    }
+}

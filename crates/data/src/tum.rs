@@ -49,12 +49,15 @@ pub fn read(path: &Path) -> Result<Trajectory> {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     let mut frames = Vec::new();
+    let mut seen = crate::trajectory::FirstSeen::default();
     for (i, line) in text.lines().enumerate() {
         let s = line.trim();
         if s.is_empty() || s.starts_with('#') {
             continue;
         }
-        frames.push(parse_line(path, i + 1, s, &seq)?);
+        let frame = parse_line(path, i + 1, s, &seq)?;
+        seen.check(path, &frame.name, i + 1, "line")?;
+        frames.push(frame);
     }
     if frames.is_empty() {
         return Err(DataError::invalid(

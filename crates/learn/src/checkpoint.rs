@@ -35,6 +35,39 @@ pub const MODEL_TOML: &str = "model.toml";
 pub const MODEL_BPK: &str = "model.bpk";
 /// Folder of the resume state.
 pub const STATE_DIR: &str = "state";
+/// The largest view side a network takes, pixels (ResNets take 224 or 256): a hand-edited
+/// `model.toml` or a `--view` of 32768x32768 asked for gigabytes before any weight was read.
+pub const MAX_INPUT_SIDE: u32 = 2048;
+/// The widest hidden layer of a head: `hidden = 1000000000` in a `model.toml` allocated
+/// gigabytes before its weights were compared with `model.bpk`.
+pub const MAX_HIDDEN: usize = 16384;
+
+/// Refuses a view with a resize or crop side past [`MAX_INPUT_SIDE`] and a hidden layer past
+/// [`MAX_HIDDEN`], before anything is allocated for them.
+pub fn check_bounds(
+    spec: &imgproc::view::ViewSpec,
+    hidden: usize,
+) -> std::result::Result<(), String> {
+    use imgproc::view::Op;
+    for op in &spec.ops {
+        if let Op::Resize { width, height }
+        | Op::CenterCrop { width, height }
+        | Op::RandomCrop { width, height } = op
+            && (*width > MAX_INPUT_SIDE || *height > MAX_INPUT_SIDE)
+        {
+            return Err(format!(
+                "view '{spec}': {width}x{height} is larger than the {MAX_INPUT_SIDE}x{MAX_INPUT_SIDE} a network takes"
+            ));
+        }
+    }
+    if hidden > MAX_HIDDEN {
+        return Err(format!(
+            "hidden layer of {hidden} units is wider than {MAX_HIDDEN}"
+        ));
+    }
+    Ok(())
+}
+
 /// Version of the checkpoint layout written by this crate.
 pub const FORMAT: u32 = 2;
 
@@ -195,6 +228,13 @@ impl ModelMeta {
         if self.input.contains(&0) {
             return Err("input shape has a zero".into());
         }
+        check_bounds(&spec, self.net.head.hidden)?;
+        if self.input[1] > MAX_INPUT_SIDE as usize || self.input[2] > MAX_INPUT_SIDE as usize {
+            return Err(format!(
+                "input {}x{} is larger than {MAX_INPUT_SIDE}x{MAX_INPUT_SIDE}",
+                self.input[2], self.input[1]
+            ));
+        }
         if !(0.0..1.0).contains(&self.dropout) {
             return Err(format!("dropout {} outside [0, 1)", self.dropout));
         }
@@ -318,4 +358,18 @@ pub fn prune_state(dir: &Path, keep: &StateFiles) {
             let _ = std::fs::remove_file(entry.path());
         }
     }
+}
+
+/// Refuses to train into `dir` when it already holds the checkpoint described by `file`
+/// (`model.toml`, `seq.toml`, `place.toml`), unless `allowed` (the run resumes it or was told to
+/// replace it): the epochs it holds are otherwise lost to a repeated command.
+pub fn refuse_overwrite(dir: &Path, file: &str, allowed: bool) -> Result<()> {
+    let path = dir.join(file);
+    if allowed || !path.is_file() {
+        return Ok(());
+    }
+    Err(LearnError::Input(format!(
+        "{} holds a trained model ({file}): --resume continues it, --force replaces it",
+        dir.display()
+    )))
 }

@@ -167,6 +167,10 @@ pub struct TrainConfig {
     pub seed: u64,
     /// Continue from the checkpoint in `out` when there is one.
     pub resume: bool,
+    /// Replace a checkpoint already in `out`; without it (or `resume`) a folder holding one is
+    /// refused, so that no trained model is lost by a repeated command.
+    #[serde(default, skip_serializing)]
+    pub force: bool,
 }
 
 impl TrainConfig {
@@ -202,6 +206,7 @@ impl TrainConfig {
             patience: Some(10),
             seed: 0,
             resume: false,
+            force: false,
         }
     }
 
@@ -251,6 +256,7 @@ impl TrainConfig {
             epochs: 0,
             patience: None,
             resume: false,
+            force: false,
             ..self.clone()
         }
     }
@@ -515,10 +521,12 @@ fn settings_text(c: &TrainConfig, task: Task) -> String {
 
 /// Trains a pose network on the native dataset `cfg.data` and checkpoints it into `cfg.out`
 /// after every epoch. With `cfg.resume` and a checkpoint in `cfg.out`, training continues from
-/// its last epoch (an error when the checkpoint was made from other data or settings); without,
-/// any checkpoint there is replaced. `progress` sees every step and epoch.
+/// its last epoch (an error when the checkpoint was made from other data or settings); with
+/// `cfg.force` a checkpoint there is replaced, and with neither refused. `progress` sees every
+/// step and epoch.
 pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result<TrainSummary> {
     cfg.validate()?;
+    checkpoint::refuse_overwrite(&cfg.out, MODEL_TOML, cfg.resume || cfg.force)?;
     let t0 = Instant::now();
     let default_view = match (&cfg.view, cfg.task) {
         (Some(_), _) => "",
@@ -527,6 +535,7 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
     };
     let spec = ViewSpec::resolve(cfg.view.as_deref().unwrap_or(default_view))
         .map_err(|e| LearnError::Config(e.to_string()))?;
+    checkpoint::check_bounds(&spec, cfg.hidden).map_err(LearnError::Config)?;
     let mut data = dataset::load(&cfg.data, &spec, cfg.seed)?;
     let planes = if cfg.planes {
         let (train_planes, val_planes, files_hash) = plane_targets(cfg, &data)?;

@@ -13,14 +13,9 @@ pub enum MarkersError {
         /// What the operating system said.
         source: std::io::Error,
     },
-    /// A file is not an image the decoder can read.
-    #[error("{path}: not a readable image: {source}")]
-    Image {
-        /// The file.
-        path: PathBuf,
-        /// What the decoder said.
-        source: image::ImageError,
-    },
+    /// A file is not an image the decoder can read (the error names it).
+    #[error(transparent)]
+    Image(#[from] data::DataError),
     /// A dictionary file is malformed.
     #[error("{path}: {message}")]
     Dictionary {

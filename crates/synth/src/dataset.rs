@@ -11,7 +11,7 @@ use crate::error::{Result, SynthError};
 use crate::import::{ImportOptions, load};
 use crate::procedural::default_world;
 use crate::render::{RenderMode, RenderOptions, RenderScene, Renderer};
-use crate::trajectory::{self, PosedFrame, Rig, WalkConfig};
+use crate::trajectory::{self, MAX_FPS, MIN_FPS, PosedFrame, Rig, WalkConfig};
 use crate::variants::{self, Crowd};
 use crate::world::{Variant, World};
 use data::native::{self, DatasetInfo, Generator, Label, Splits};
@@ -98,8 +98,12 @@ pub struct SynthConfig {
     pub depth: bool,
     /// Write `planes/` (8-bit dominant-plane ids).
     pub planes: bool,
-    /// Keep frames already written by an interrupted run.
+    /// Finish an interrupted run into the same folder with the same settings: frames whose
+    /// every output is on disk are kept.
     pub resume: bool,
+    /// Replace a dataset already in the folder (without `resume` or `force` a folder that
+    /// holds one is refused, so that no work is lost by a mistyped path).
+    pub force: bool,
 }
 
 impl Default for SynthConfig {
@@ -120,6 +124,7 @@ impl Default for SynthConfig {
             depth: true,
             planes: true,
             resume: false,
+            force: false,
         }
     }
 }
@@ -164,6 +169,12 @@ struct Shot {
     frame: PosedFrame,
 }
 
+/// The most frames one dataset may hold: the plan of every frame is made, and held in memory,
+/// before the first is rendered (`u64::MAX` frames asked for memory without end).
+pub const MAX_FRAMES: usize = 2_000_000;
+/// The largest image side, pixels.
+pub const MAX_SIDE: u32 = 8192;
+
 /// Renders the dataset into `out`; `progress` is called with the number of frames done so far.
 pub fn run(
     cfg: &SynthConfig,
@@ -176,12 +187,27 @@ pub fn run(
             cfg.sequences, cfg.frames
         )));
     }
-    if cfg.width < 8 || cfg.height < 8 {
+    if cfg.frames > MAX_FRAMES {
         return Err(SynthError::Config(format!(
-            "image size {}x{} is too small (at least 8x8)",
+            "{} frames is more than {MAX_FRAMES}, the most one dataset holds (split the \
+             rendering into several datasets)",
+            cfg.frames
+        )));
+    }
+    if cfg.width < 8 || cfg.height < 8 || cfg.width > MAX_SIDE || cfg.height > MAX_SIDE {
+        return Err(SynthError::Config(format!(
+            "image size {}x{} must be within 8x8 and {MAX_SIDE}x{MAX_SIDE}",
             cfg.width, cfg.height
         )));
     }
+    if let Some(fps) = cfg.fps
+        && !(fps.is_finite() && (MIN_FPS..=MAX_FPS).contains(&fps))
+    {
+        return Err(SynthError::Config(format!(
+            "fps {fps:e} must be within [{MIN_FPS}, {MAX_FPS}] frames per second"
+        )));
+    }
+    prepare_folder(cfg, out)?;
     let (mut world, warnings) = build_world(cfg)?;
     let crowd = (cfg.variant == Variant::People).then(|| {
         let count = Crowd::suggested_count(&world);
@@ -207,7 +233,11 @@ pub fn run(
         Renderer::new,
         |renderer, (index, shot)| -> Result<()> {
             let frame_path = native::image_path(out, "frames", index as u64);
-            if !(cfg.resume && frame_path.is_file()) {
+            let on_disk = |sub: &str| native::image_path(out, sub, index as u64).is_file();
+            let complete = frame_path.is_file()
+                && (!cfg.depth || on_disk("depth"))
+                && (!cfg.planes || on_disk("planes"));
+            if !(cfg.resume && complete) {
                 let opts = RenderOptions {
                     mode: cfg.mode,
                     seed: cfg.seed.wrapping_mul(1_000_003).wrapping_add(index as u64),
@@ -242,6 +272,100 @@ pub fn run(
         render_seconds,
         warnings,
     })
+}
+
+/// File in a dataset folder recording the settings it is rendered with, so that `resume`
+/// continues only the same run.
+pub const SETTINGS_FILE: &str = "synth-settings.txt";
+
+/// The image folders a run writes.
+const IMAGE_DIRS: [&str; 3] = ["frames", "depth", "planes"];
+
+/// The settings that shape the content (everything but `resume` and `force`).
+fn settings_key(cfg: &SynthConfig) -> String {
+    format!(
+        "{:?}\n",
+        SynthConfig {
+            resume: false,
+            force: false,
+            ..cfg.clone()
+        }
+    )
+}
+
+/// Makes `out` ready for a run: a folder holding a dataset (or a part of one) is refused unless
+/// the run resumes it with the settings it was made with, or `force` replaces it (its dataset
+/// files and image folders are removed first); temporary files an interrupted run left are
+/// removed. Records the run's settings.
+fn prepare_folder(cfg: &SynthConfig, out: &Path) -> Result<()> {
+    let settings_path = out.join(SETTINGS_FILE);
+    let images = |sub: &str| {
+        std::fs::read_dir(out.join(sub)).map_or(0, |d| d.filter_map(|e| e.ok()).count())
+    };
+    let held = IMAGE_DIRS.iter().map(|d| images(d)).sum::<usize>();
+    let occupied = held > 0 || out.join(native::DATASET_TOML).is_file() || settings_path.is_file();
+    let key = settings_key(cfg);
+    if occupied && cfg.resume {
+        let recorded = std::fs::read_to_string(&settings_path).map_err(|_| {
+            SynthError::Config(format!(
+                "{} holds no record of the settings its images were made with ({SETTINGS_FILE}): \
+                 it cannot be resumed; --force replaces it",
+                out.display()
+            ))
+        })?;
+        if recorded != key {
+            return Err(SynthError::Config(format!(
+                "{} was rendered with other settings than these ({}): resume it with the same \
+                 settings, or --force to replace it; recorded: {}",
+                out.display(),
+                settings_path.display(),
+                recorded.trim()
+            )));
+        }
+    } else if occupied && !cfg.force {
+        return Err(SynthError::Config(format!(
+            "{} already holds a dataset ({held} images): --resume finishes an interrupted run \
+             with the same settings, --force replaces it",
+            out.display()
+        )));
+    } else if occupied {
+        for sub in IMAGE_DIRS {
+            remove(&out.join(sub), |p| std::fs::remove_dir_all(p))?;
+        }
+        for file in [
+            native::DATASET_TOML,
+            native::POSES_CSV,
+            native::LABELS_CSV,
+            native::CUTS_CSV,
+            native::SPLITS_TOML,
+            SETTINGS_FILE,
+        ] {
+            remove(&out.join(file), |p| std::fs::remove_file(p))?;
+        }
+    }
+    for sub in IMAGE_DIRS {
+        let Ok(entries) = std::fs::read_dir(out.join(sub)) else {
+            continue;
+        };
+        for entry in entries.filter_map(|e| e.ok()) {
+            if entry.file_name().to_string_lossy().ends_with(".tmp") {
+                remove(&entry.path(), |p| std::fs::remove_file(p))?;
+            }
+        }
+    }
+    data::io::write_atomic(&settings_path, |w| w.write_all(key.as_bytes()))?;
+    Ok(())
+}
+
+/// Removes `path` with `how`; a path that is not there is no error.
+fn remove(path: &Path, how: impl Fn(&Path) -> std::io::Result<()>) -> Result<()> {
+    match how(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(SynthError::Io {
+            path: path.to_path_buf(),
+            source: e,
+        }),
+        _ => Ok(()),
+    }
 }
 
 /// Per frame, the people left out of it: those who come within [`PERSON_CLEARANCE_M`] of the

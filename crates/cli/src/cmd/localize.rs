@@ -220,6 +220,9 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
             args.model.display()
         );
     }
+    if !place_only {
+        check_mount(&args.model, &args.input)?;
+    }
     let sequence = if SeqMeta::exists(&args.model) && !args.single && !place_only {
         Some(SeqLocalizer::load(&args.model)?.with_seed(args.mc_seed))
     } else {
@@ -446,6 +449,28 @@ fn posed_frames(input: &Path, split: Split) -> Result<Option<Box<dyn Iterator<It
         t: f.t,
         new_scene: false,
     }))))
+}
+
+/// A pose model localizes the camera it was trained for: a native dataset whose `dataset.toml`
+/// records another mount (a ceiling camera's frames for a forward camera's model, or the other
+/// way) is refused, as its poses would be decoded in the wrong frame.
+fn check_mount(model: &Path, input: &Path) -> Result<()> {
+    let info_path = input.join(data::native::DATASET_TOML);
+    if !info_path.is_file() {
+        return Ok(());
+    }
+    let info = data::native::DatasetInfo::read(&info_path)?;
+    let coding = learn::checkpoint::ModelMeta::read(model)?.coding;
+    if info.mount != coding.mount {
+        bail!(
+            "{}: frames of a {:?} camera, but the model in {} localizes a {:?} camera",
+            info_path.display(),
+            info.mount,
+            model.display(),
+            coding.mount
+        );
+    }
+    Ok(())
 }
 
 /// The frames of `input`, decoded lazily: a native dataset's frames (of `split`), a 7-Scenes or

@@ -66,9 +66,14 @@ pub struct SynthArgs {
     /// Skip dominant-plane images.
     #[arg(long)]
     no_planes: bool,
-    /// Keep frames already written by an interrupted run.
-    #[arg(long)]
+    /// Finish an interrupted run into --out (the same settings; frames whose every image is on
+    /// disk are kept).
+    #[arg(long, conflicts_with = "force")]
     resume: bool,
+    /// Replace the dataset --out holds (without --resume or --force, a folder holding one is
+    /// refused).
+    #[arg(long)]
+    force: bool,
     /// Also write another layout beside the native one (`7scenes` → OUT/7scenes).
     #[arg(long, value_name = "FORMAT")]
     export: Option<String>,
@@ -221,5 +226,6 @@ fn config(args: &SynthArgs) -> Result<SynthConfig> {
         depth: !args.no_depth,
         planes: !args.no_planes,
         resume: args.resume,
+        force: args.force,
     })
 }

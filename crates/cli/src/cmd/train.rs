@@ -151,8 +151,12 @@ pub struct TrainArgs {
     #[arg(long)]
     seq_beta: Option<f64>,
     /// Continue from the checkpoint in --out.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "force")]
     resume: bool,
+    /// Replace the model --out holds (without --resume or --force, a folder holding one is
+    /// refused).
+    #[arg(long)]
+    force: bool,
     /// Print one JSON document instead of a table.
     #[arg(long)]
     json: bool,
@@ -190,6 +194,7 @@ impl TrainArgs {
         cfg.patience = Some(self.patience);
         cfg.seed = self.seed;
         cfg.resume = self.resume;
+        cfg.force = self.force;
         cfg
     }
 
@@ -205,6 +210,7 @@ impl TrainArgs {
         cfg.patience = Some(self.patience);
         cfg.seed = self.seed;
         cfg.resume = self.resume;
+        cfg.force = self.force;
         Some(cfg)
     }
 }
@@ -259,6 +265,7 @@ pub fn place_config(args: &TrainArgs) -> Result<PlaceConfig> {
     cfg.patience = Some(args.patience);
     cfg.seed = args.seed;
     cfg.resume = args.resume;
+    cfg.force = args.force;
     Ok(cfg)
 }
 

@@ -102,6 +102,9 @@ pub struct PlaceConfig {
     pub seed: u64,
     /// Continue from the checkpoint in `out`.
     pub resume: bool,
+    /// Replace a place model already in `out` (without it or `resume` one is refused).
+    #[serde(default, skip_serializing)]
+    pub force: bool,
 }
 
 impl PlaceConfig {
@@ -126,6 +129,7 @@ impl PlaceConfig {
             patience: Some(5),
             seed: 0,
             resume: false,
+            force: false,
         }
     }
 
@@ -156,6 +160,7 @@ impl PlaceConfig {
             epochs: 0,
             patience: None,
             resume: false,
+            force: false,
             ..self.clone()
         }
     }
@@ -304,9 +309,11 @@ pub fn train_place(
     progress: &mut dyn FnMut(&PlaceEvent),
 ) -> Result<PlaceSummary> {
     cfg.validate()?;
+    crate::checkpoint::refuse_overwrite(&cfg.out, super::PLACE_TOML, cfg.resume || cfg.force)?;
     let t0 = Instant::now();
     let spec = ViewSpec::resolve(cfg.view.as_deref().unwrap_or("place240"))
         .map_err(|e| LearnError::Config(e.to_string()))?;
+    crate::checkpoint::check_bounds(&spec, 0).map_err(LearnError::Config)?;
     let (labels, classes, cuts) = dataset_labels(&cfg.data)?;
     let data = dataset::load(&cfg.data, &spec, cfg.seed)?;
     let (train, val) = match cfg.split {

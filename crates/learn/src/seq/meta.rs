@@ -102,6 +102,16 @@ impl SeqMeta {
         if meta.head.features == 0 || meta.head.hidden == 0 || meta.head.outputs == 0 {
             return Err(LearnError::corrupt(&path, "head with a zero width"));
         }
+        if meta.head.hidden > super::MAX_LSTM_UNITS {
+            return Err(LearnError::corrupt(
+                &path,
+                format!(
+                    "{} LSTM units, more than {}",
+                    meta.head.hidden,
+                    super::MAX_LSTM_UNITS
+                ),
+            ));
+        }
         if !(0.0..1.0).contains(&meta.dropout) {
             return Err(LearnError::corrupt(
                 &path,

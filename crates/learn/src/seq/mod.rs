@@ -29,6 +29,10 @@
 //! frame at a time with the LSTM state carried over ([`SeqTracker::step`]); a scene cut or a new
 //! recording calls [`SeqTracker::reset`].
 
+/// The most LSTM units a sequence model has: its gates hold `4·H·(F + O + H)` weights, and a
+/// hand-edited `seq.toml` must not ask for gigabytes before its weights are read.
+pub const MAX_LSTM_UNITS: usize = 4096;
+
 mod head;
 mod infer;
 mod meta;

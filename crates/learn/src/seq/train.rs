@@ -77,6 +77,9 @@ pub struct SeqConfig {
     pub seed: u64,
     /// Continue from the sequence checkpoint in `model` when there is one.
     pub resume: bool,
+    /// Replace a sequence part already in `model` (without it or `resume` one is refused).
+    #[serde(default, skip_serializing)]
+    pub force: bool,
 }
 
 impl SeqConfig {
@@ -104,6 +107,7 @@ impl SeqConfig {
             patience: Some(4),
             seed: 0,
             resume: false,
+            force: false,
         }
     }
 
@@ -117,6 +121,13 @@ impl SeqConfig {
         }
         if self.stride == 0 || self.hidden == 0 || self.epochs == 0 || self.batch_size == 0 {
             return bad("stride, LSTM units, epochs and batch size must be at least 1".into());
+        }
+        if self.hidden > super::MAX_LSTM_UNITS {
+            return bad(format!(
+                "{} LSTM units, more than {}",
+                self.hidden,
+                super::MAX_LSTM_UNITS
+            ));
         }
         if !(self.lr.is_finite() && self.lr > 0.0) {
             return bad(format!("learning rate {} must be positive", self.lr));
@@ -141,6 +152,7 @@ impl SeqConfig {
             epochs: 0,
             patience: None,
             resume: false,
+            force: false,
             ..self.clone()
         }
     }
@@ -461,6 +473,7 @@ fn resume(
 /// `cfg.resume` it continues from the last epoch there, on the same data.
 pub fn train_sequence(cfg: &SeqConfig, progress: &mut dyn FnMut(&SeqEvent)) -> Result<SeqSummary> {
     cfg.validate()?;
+    checkpoint::refuse_overwrite(&cfg.model, SEQ_TOML, cfg.resume || cfg.force)?;
     let t0 = Instant::now();
     let base = Localizer::load(&cfg.model)?;
     let base_meta = base.meta().clone();

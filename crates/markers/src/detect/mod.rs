@@ -139,16 +139,11 @@ pub fn detect_file(
     Ok(detect(&gray, dict, params))
 }
 
-/// Reads an image file as 8-bit gray the way OpenCV's `cvtColor(BGR2GRAY)` computes it.
+/// Reads an image file as 8-bit gray the way OpenCV's `cvtColor(BGR2GRAY)` computes it. The
+/// file is decoded as every command decodes frames ([`data::frames::decode_image`]): a
+/// truncated JPEG is refused, not read as an image whose lower part is grey.
 pub fn load_gray(path: &Path) -> Result<GrayImage, MarkersError> {
-    let bytes = std::fs::read(path).map_err(|source| MarkersError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let img = image::load_from_memory(&bytes).map_err(|source| MarkersError::Image {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let img = data::frames::decode_image(path)?;
     Ok(match img {
         image::DynamicImage::ImageLuma8(g) => g,
         other => {

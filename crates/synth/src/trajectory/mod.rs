@@ -119,6 +119,13 @@ impl Rig {
     }
 }
 
+/// The lowest walk frame rate: a frame every 10 s. A walk plans its path step by step, so a
+/// rate of 1e-6 (a frame every 11 days of walking) took minutes per frame, and 1e-300 never
+/// finished.
+pub const MIN_FPS: f64 = 0.1;
+/// The highest walk frame rate.
+pub const MAX_FPS: f64 = 1000.0;
+
 /// How a walk moves. [`WalkConfig::default`] is the forward rig's; [`WalkConfig::for_rig`] picks
 /// the defaults that suit a rig.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -195,8 +202,12 @@ impl WalkConfig {
         let [d0, d1] = self.storey_dwell_m;
         let checks: [(bool, String); 8] = [
             (
-                self.fps.is_finite() && self.fps > 0.0 && self.fps <= 1000.0,
-                format!("fps {} must be in (0, 1000]", self.fps),
+                self.fps.is_finite() && (MIN_FPS..=MAX_FPS).contains(&self.fps),
+                format!(
+                    "fps {} must be in [{MIN_FPS}, {MAX_FPS}] (a frame at most every {} s)",
+                    self.fps,
+                    1.0 / MIN_FPS
+                ),
             ),
             (
                 v0.is_finite() && v1.is_finite() && v0 > 0.0 && v0 <= v1 && v1 <= 10.0,

@@ -420,7 +420,12 @@ fn render(cfg: &SynthConfig, dir: &Path) -> Result<()> {
         return Ok(());
     }
     let pb = bar(cfg.frames as u64, "render");
-    synth::dataset::run(cfg, dir, &|n| pb.set_position(n as u64))?;
+    // the study's own folder, rendered with other settings before: replaced
+    let cfg = SynthConfig {
+        force: true,
+        ..cfg.clone()
+    };
+    synth::dataset::run(&cfg, dir, &|n| pb.set_position(n as u64))?;
     pb.finish_and_clear();
     data::io::write_atomic(&key_path, |w| w.write_all(key.as_bytes()))?;
     Ok(())
