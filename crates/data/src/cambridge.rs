@@ -77,7 +77,7 @@ pub fn read(path: &Path) -> Result<Trajectory> {
             || (line_no <= HEADER_LINES && !looks_like_pose(&fields));
         if !skip {
             let frame = parse_line(path, line_no, &fields, &stem)?;
-            seen.check(path, &frame.name, line_no, "line")?;
+            seen.check(path, &frame.name, line_no, &frame.pose, "line")?;
             frames.push(frame);
         }
     }

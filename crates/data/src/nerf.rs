@@ -104,7 +104,7 @@ pub fn read_with_images(path: &Path) -> Result<(Trajectory, Vec<PathBuf>)> {
             .as_object()
             .ok_or_else(|| DataError::invalid(&path, format!("{ctx} is not an object")))?;
         let (pose_frame, file_path) = parse_frame(&path, &ctx, obj)?;
-        seen.check(&path, file_path, i, "frame")?;
+        seen.check(&path, file_path, i, &pose_frame.pose, "frame")?;
         cameras.push(if CAMERA_KEYS.iter().any(|k| obj.contains_key(*k)) {
             camera(&path, &ctx, &|k| obj.get(k).or_else(|| top.get(k)))?
         } else {

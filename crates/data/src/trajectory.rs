@@ -53,28 +53,41 @@ impl Trajectory {
     }
 }
 
-/// Where each frame key (an image name, a timestamp) was first given, so that a reader refuses
-/// a frame given twice: with two poses for one frame, which one is the truth cannot be told,
-/// and the first silently won before.
+/// Where each frame key (an image name, a timestamp) was first given and at which pose, so that
+/// a reader refuses a frame given twice with two poses: which one is the truth cannot be told,
+/// and the first silently won before. The same frame repeated at the same pose is harmless.
 #[derive(Debug, Default)]
-pub(crate) struct FirstSeen(std::collections::HashMap<String, usize>);
+pub(crate) struct FirstSeen(std::collections::HashMap<String, (usize, Pose)>);
 
 impl FirstSeen {
-    /// Records `key` at `place` (a line number, or a frame index for JSON), or an error naming
-    /// `path`, the key and both places when it was given before (`what`: "line", "frame").
+    /// Records `key` at `place` (a line number, or a frame index for JSON) with `pose`, or an
+    /// error naming `path`, the key and both places when it was given before at another pose
+    /// (`what`: "line", "frame").
     pub(crate) fn check(
         &mut self,
         path: &std::path::Path,
         key: &str,
         place: usize,
+        pose: &Pose,
         what: &str,
     ) -> crate::Result<()> {
-        match self.0.insert(key.to_string(), place) {
-            Some(first) => Err(crate::DataError::invalid(
-                path,
-                format!("frame '{key}' is given twice ({what}s {first} and {place})"),
-            )),
-            None => Ok(()),
+        match self.0.get(key) {
+            Some((first, before))
+                if geom::metrics::position_error(before, pose) > 1e-9
+                    || geom::metrics::rotation_error_deg(before, pose) > 1e-6 =>
+            {
+                Err(crate::DataError::invalid(
+                    path,
+                    format!(
+                        "frame '{key}' is given twice with different poses ({what}s {first} and {place})"
+                    ),
+                ))
+            }
+            Some(_) => Ok(()),
+            None => {
+                self.0.insert(key.to_string(), (place, *pose));
+                Ok(())
+            }
         }
     }
 }

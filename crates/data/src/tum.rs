@@ -56,7 +56,7 @@ pub fn read(path: &Path) -> Result<Trajectory> {
             continue;
         }
         let frame = parse_line(path, i + 1, s, &seq)?;
-        seen.check(path, &frame.name, i + 1, "line")?;
+        seen.check(path, &frame.name, i + 1, &frame.pose, "line")?;
         frames.push(frame);
     }
     if frames.is_empty() {

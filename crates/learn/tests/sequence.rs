@@ -205,7 +205,9 @@ fn a_retrained_network_or_short_recordings_are_refused() {
     run_seq(&seq_config(&data, &model, 1));
     assert!(SeqLocalizer::load(&model).is_ok());
     // the CNN trained again with another seed: its features are not the ones the LSTM knows
-    train(&base_config(&data, &model, 2), &mut |_| {}).unwrap();
+    let mut again = base_config(&data, &model, 2);
+    again.force = true;
+    train(&again, &mut |_| {}).unwrap();
     let err = SeqLocalizer::load(&model).unwrap_err();
     assert!(
         matches!(&err, LearnError::Mismatch { path, .. } if path.ends_with("seq.toml")),

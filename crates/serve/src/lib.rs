@@ -20,6 +20,7 @@
 
 mod hub;
 mod map;
+mod origin;
 mod prometheus;
 #[cfg(feature = "ros2")]
 pub mod ros2;

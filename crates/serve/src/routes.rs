@@ -20,6 +20,9 @@ pub struct ServerConfig {
     pub ping_interval: Duration,
     /// A client silent for this long (no pong, no message) is dropped.
     pub client_timeout: Duration,
+    /// Origins besides the server's own whose pages may read the pose stream (`/ws`,
+    /// `/pose`), e.g. `https://robot.example`; see [`crate::origin`].
+    pub allow_origins: Vec<String>,
 }
 
 impl Default for ServerConfig {
@@ -28,6 +31,7 @@ impl Default for ServerConfig {
             send_timeout: Duration::from_secs(2),
             ping_interval: Duration::from_secs(2),
             client_timeout: Duration::from_secs(10),
+            allow_origins: Vec::new(),
         }
     }
 }
@@ -41,6 +45,7 @@ pub(crate) struct App {
 
 /// The server's routes over `hub`.
 pub fn router(hub: Arc<Hub>, cfg: ServerConfig) -> Router {
+    let app = App { hub, cfg };
     Router::new()
         .route("/", get(dashboard))
         .route("/health", get(health))
@@ -50,11 +55,15 @@ pub fn router(hub: Arc<Hub>, cfg: ServerConfig) -> Router {
         .route("/metrics", get(metrics))
         .route("/ws", get(ws::upgrade))
         .fallback(not_found)
-        .with_state(App { hub, cfg })
+        .layer(axum::middleware::from_fn_with_state(
+            app.clone(),
+            crate::origin::guard,
+        ))
+        .with_state(app)
 }
 
 /// A JSON error body with its status.
-fn error(status: StatusCode, message: &str) -> Response {
+pub(crate) fn error(status: StatusCode, message: &str) -> Response {
     (status, axum::Json(serde_json::json!({ "error": message }))).into_response()
 }
 

@@ -24,8 +24,15 @@ const CLOSE_NORMAL: u16 = 1000;
 /// Close code after a source error.
 const CLOSE_ERROR: u16 = 1011;
 
+/// The largest message a client may send: the server reads none (clients only listen), so
+/// anything past a close frame's worth is refused rather than buffered (64 MiB by default: eight
+/// clients each sending an unfinished 61 MB message held 710 MB).
+const MAX_CLIENT_MESSAGE: usize = 4096;
+
 pub(crate) async fn upgrade(State(app): State<App>, ws: WebSocketUpgrade) -> Response {
-    ws.on_upgrade(move |socket| client(socket, app))
+    ws.max_message_size(MAX_CLIENT_MESSAGE)
+        .max_frame_size(MAX_CLIENT_MESSAGE)
+        .on_upgrade(move |socket| client(socket, app))
 }
 
 /// Why a client's feed ended.

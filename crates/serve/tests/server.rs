@@ -96,7 +96,9 @@ async fn routes_answer_and_malformed_requests_get_4xx() -> TestResult {
     }
     let (status, _) = http(
         addr,
-        "POST /pose HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\nConnection: close\r\n\r\n",
+        &format!(
+            "POST /pose HTTP/1.1\r\nHost: {addr}\r\nContent-Length: 0\r\nConnection: close\r\n\r\n"
+        ),
     )
     .await;
     assert_eq!(status, 405);
@@ -231,5 +233,60 @@ async fn a_dying_source_ends_the_stream_with_an_error_and_health_still_answers()
     let late = collect(&format!("ws://{addr}/ws"), Duration::from_secs(5)).await?;
     assert_eq!(late.len(), 1);
     assert_eq!(late[0]["event"], "error");
+    Ok(())
+}
+
+/// Pages of other origins cannot read the pose stream, names that are not this machine's are
+/// refused (DNS rebinding), an allowed origin passes, and a client's oversized message closes
+/// its connection instead of being buffered.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn foreign_origins_and_hosts_get_403_and_client_messages_are_capped() -> TestResult {
+    use futures_util::SinkExt;
+    let cfg = serve::ServerConfig {
+        allow_origins: vec!["https://robot.example".into()],
+        ..serve::ServerConfig::default()
+    };
+    let (_hub, addr) = start(pipeline(3000, 30.0, false), cfg).await;
+    first_pose(addr).await?;
+    let request = |path: &str, host: &str, origin: Option<&str>| {
+        let origin = origin.map_or(String::new(), |o| format!("Origin: {o}\r\n"));
+        format!("GET {path} HTTP/1.1\r\nHost: {host}\r\n{origin}Connection: close\r\n\r\n")
+    };
+    let own = addr.to_string();
+    let upgrade = |host: &str, origin: &str| {
+        format!(
+            "GET /ws HTTP/1.1\r\nHost: {host}\r\nOrigin: {origin}\r\nConnection: Upgrade\r\n\
+             Upgrade: websocket\r\nSec-WebSocket-Version: 13\r\n\
+             Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n"
+        )
+    };
+    for (raw, want) in [
+        (request("/pose", &own, Some("http://evil.example")), 403),
+        (request("/pose", "evil.example:8080", None), 403),
+        (request("/", "rebind.evil.example", None), 403),
+        (upgrade(&own, "http://evil.example"), 403),
+        (request("/pose", &own, None), 200),
+        (request("/pose", &own, Some(&format!("http://{own}"))), 200),
+        (request("/pose", &own, Some("https://robot.example")), 200),
+        (upgrade(&own, &format!("http://{own}")), 101),
+    ] {
+        let (status, body) = http(addr, &raw).await;
+        assert_eq!(status, want, "{raw}: {body}");
+    }
+    // a client that talks: 1 MiB in one message ends its connection
+    let (mut ws, _) = tokio_tungstenite::connect_async(format!("ws://{addr}/ws")).await?;
+    let _ = ws.send(Message::Binary(vec![7u8; 1 << 20].into())).await;
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
+    let mut closed = false;
+    while let Ok(next) = tokio::time::timeout_at(deadline, ws.next()).await {
+        match next {
+            None | Some(Err(_)) | Some(Ok(Message::Close(_))) => {
+                closed = true;
+                break;
+            }
+            Some(Ok(_)) => {}
+        }
+    }
+    assert!(closed, "the connection stayed open");
     Ok(())
 }

@@ -36,6 +36,11 @@ pub struct ServeArgs {
     /// Port to listen on (0: any free port, printed at start).
     #[arg(long, default_value_t = 8080)]
     port: u16,
+    /// An origin besides the server's own whose web pages may read the pose stream (`/ws`,
+    /// `/pose`) and whose host name may reach the server, e.g. `https://robot.example`
+    /// (repeatable); pages of other origins get 403.
+    #[arg(long, value_name = "ORIGIN")]
+    allow_origin: Vec<String>,
     /// Monte-Carlo-dropout passes per frame (0: one deterministic pass; the network's own
     /// error scale still gives the uncertainty).
     #[arg(long, default_value_t = 0)]
@@ -145,7 +150,10 @@ pub fn run(args: &ServeArgs) -> Result<()> {
         .block_on(serve::serve(
             listener,
             hub,
-            ServerConfig::default(),
+            ServerConfig {
+                allow_origins: args.allow_origin.clone(),
+                ..ServerConfig::default()
+            },
             shutdown,
         ))
         .context("server failed")?;
