@@ -281,6 +281,8 @@ fn a_place_classifier_trains_from_the_command_line() -> TestResult {
             "8",
             "--epochs",
             "1",
+            // the second split replaces the first's model
+            "--force",
             "--json",
         ])?)?;
         assert_eq!(t["split"], split);

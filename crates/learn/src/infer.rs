@@ -468,16 +468,18 @@ mod tests {
         };
         // One pass, s = ln 0.5: E‖e‖² = d(d + 1)·b² = 6 · 0.25 in the plane.
         let row = vec![1.0, 2.0, 0.0, 1.0, 0.5f32.ln()];
-        let est = &estimates(&coding, std::slice::from_ref(&row), 1)[0];
+        let est = &estimates(&coding, std::slice::from_ref(&row), 0)[0];
         assert!((est.sigma_pos_m - 1.5f64.sqrt()).abs() < 1e-6, "{est:?}");
         assert_eq!(est.sigma_rot_deg, 0.0);
-        // Two passes 2 m apart: MC variance 1 m² on top of the scale's.
+        // The plain pass, then two MC passes 2 m apart: MC variance 1 m² on top of the plain
+        // pass's scale; the pose is the plain pass's.
         let mut moved = row.clone();
         moved[0] = 3.0;
-        let est = &estimates(&coding, &[row.clone(), moved], 2)[0];
+        let est = &estimates(&coding, &[row.clone(), row.clone(), moved], 2)[0];
         assert!((est.sigma_pos_m - 2.5f64.sqrt()).abs() < 1e-6, "{est:?}");
+        assert_eq!(est.passes, 2);
         // Without the column, nothing is added.
-        let est = &estimates(&coding, &[row[..4].to_vec()], 1)[0];
+        let est = &estimates(&coding, &[row[..4].to_vec()], 0)[0];
         assert_eq!(est.sigma_pos_m, 0.0);
     }
 
