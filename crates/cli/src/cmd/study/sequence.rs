@@ -17,7 +17,7 @@ use crate::output::{print_json, print_text};
 use anyhow::Result;
 use clap::Args;
 use data::native::{NativeDataset, SplitName};
-use learn::seq::{SeqConfig, SeqLocalizer};
+use learn::seq::{SeqConfig, SeqLocalizer, SeqMeta};
 use report::{HtmlReport, Series, Table};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -103,7 +103,11 @@ pub fn run(args: &SequenceArgs) -> Result<()> {
     cfg.window = args.window;
     cfg.hidden = args.lstm_units;
     cfg.epochs = args.seq_epochs;
-    cfg.resume = true;
+    // a sequence part this build cannot read (an older layout) is the study's own to replace
+    let unreadable =
+        SeqMeta::exists(&prepared.model_dir) && SeqMeta::read(&prepared.model_dir).is_err();
+    cfg.resume = !unreadable;
+    cfg.force = unreadable;
     train_sequence_with_progress(&cfg, !args.json)?;
 
     say("4/5 localizing the held-out test walk frame by frame and as a sequence");
