@@ -33,15 +33,41 @@ pub use routes::{ServerConfig, router};
 
 /// Serves `hub` on `listener` until `shutdown` resolves.
 ///
+/// The accept loop is ours rather than `axum::serve`'s so that every connection gets
+/// `cfg.header_timeout` to send its request head (axum's has none: a client sending one header
+/// byte a minute held a connection for ever). A failed accept (no file descriptors left) waits
+/// a moment and goes on, as axum's does.
+///
 /// # Errors
-/// The listener fails.
+/// None today; the signature keeps room for a listener that fails for good.
 pub async fn serve(
     listener: tokio::net::TcpListener,
     hub: std::sync::Arc<Hub>,
     cfg: ServerConfig,
     shutdown: impl std::future::Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
-    axum::serve(listener, router(hub, cfg))
-        .with_graceful_shutdown(shutdown)
-        .await
+    let header_timeout = cfg.header_timeout;
+    let app = router(hub, cfg);
+    let mut shutdown = std::pin::pin!(shutdown);
+    loop {
+        let stream = tokio::select! {
+            accepted = listener.accept() => match accepted {
+                Ok((stream, _)) => stream,
+                Err(_) => {
+                    tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+                    continue;
+                }
+            },
+            () = &mut shutdown => return Ok(()),
+        };
+        let service = hyper_util::service::TowerToHyperService::new(app.clone());
+        tokio::spawn(async move {
+            let _ = hyper::server::conn::http1::Builder::new()
+                .timer(hyper_util::rt::TokioTimer::new())
+                .header_read_timeout(header_timeout)
+                .serve_connection(hyper_util::rt::TokioIo::new(stream), service)
+                .with_upgrades()
+                .await;
+        });
+    }
 }

@@ -20,6 +20,8 @@ pub struct ServerConfig {
     pub ping_interval: Duration,
     /// A client silent for this long (no pong, no message) is dropped.
     pub client_timeout: Duration,
+    /// A connection that has not sent a whole request head in this time is closed (slowloris).
+    pub header_timeout: Duration,
     /// Origins besides the server's own whose pages may read the pose stream (`/ws`,
     /// `/pose`), e.g. `https://robot.example`; see [`crate::origin`].
     pub allow_origins: Vec<String>,
@@ -31,6 +33,7 @@ impl Default for ServerConfig {
             send_timeout: Duration::from_secs(2),
             ping_interval: Duration::from_secs(2),
             client_timeout: Duration::from_secs(10),
+            header_timeout: Duration::from_secs(10),
             allow_origins: Vec::new(),
         }
     }

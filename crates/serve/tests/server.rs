@@ -290,3 +290,25 @@ async fn foreign_origins_and_hosts_get_403_and_client_messages_are_capped() -> T
     assert!(closed, "the connection stayed open");
     Ok(())
 }
+
+/// A client that never finishes its request head is closed after the header timeout, and the
+/// server goes on serving.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_request_head_that_never_ends_is_cut_off() -> TestResult {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let cfg = serve::ServerConfig {
+        header_timeout: Duration::from_secs(1),
+        ..serve::ServerConfig::default()
+    };
+    let (_hub, addr) = start(pipeline(600, 30.0, false), cfg).await;
+    let mut slow = tokio::net::TcpStream::connect(addr).await?;
+    slow.write_all(format!("GET /health HTTP/1.1\r\nHost: {addr}\r\nX-Slow:").as_bytes())
+        .await?;
+    let t = Instant::now();
+    let mut buf = Vec::new();
+    let read = tokio::time::timeout(Duration::from_secs(5), slow.read_to_end(&mut buf)).await;
+    assert!(read.is_ok(), "still open after 5 s");
+    assert!(t.elapsed() < Duration::from_secs(4), "{:?}", t.elapsed());
+    assert_eq!(get(addr, "/health").await.0, 200);
+    Ok(())
+}
