@@ -1,5 +1,6 @@
 //! Integration tests of the `indoorloc` binary, one module per theme.
 
+mod bad_input_cli;
 mod demo_cli;
 mod eval_cli;
 mod learn_cli;
