@@ -22,14 +22,41 @@ fn pose3(s: usize, i: usize, n_seq: usize) -> (f64, f64, f64) {
 }
 
 fn image(x: f64, y: f64, heading: f64) -> RgbImage {
-    let r = (30.0 + 40.0 * x).clamp(0.0, 255.0);
-    let g = (128.0 + 100.0 * y).clamp(0.0, 255.0);
-    let b = (128.0 + 100.0 * heading.sin()).clamp(0.0, 255.0);
+    textured([
+        (30.0 + 40.0 * x).clamp(0.0, 255.0),
+        (128.0 + 100.0 * y).clamp(0.0, 255.0),
+        (128.0 + 100.0 * heading.sin()).clamp(0.0, 255.0),
+    ])
+}
+
+/// A test frame of mean colour `[r, g, b]` under the fixed texture.
+fn textured([r, g, b]: [f64; 3]) -> RgbImage {
     RgbImage::from_fn(W, H, |u, v| {
         let tex = (((u * 7 + v * 13) % 11) as f64 - 5.0) * 2.0;
         let c = |m: f64| (m + tex).clamp(0.0, 255.0) as u8;
         Rgb([c(r), c(g), c(b)])
     })
+}
+
+/// `dataset.toml` of the test datasets: `W`x`H` frames at 10 Hz of a pinhole camera.
+fn info(name: String, dof: u8, mount: Mount) -> DatasetInfo {
+    DatasetInfo {
+        name,
+        dof,
+        units: "m".into(),
+        frame_rate: 10.0,
+        mount,
+        camera: CameraInfo {
+            width: W,
+            height: H,
+            fx: 20.0,
+            fy: 20.0,
+            cx: W as f64 / 2.0,
+            cy: H as f64 / 2.0,
+            distortion: [0.0; 5],
+        },
+        generator: None,
+    }
 }
 
 /// Writes a dataset of `per_seq` frames in each of three sequences (`s0`, `s1` train, `s2`
@@ -64,23 +91,7 @@ pub fn make_dataset(root: &Path, dof: u8, per_seq: usize) {
             number += 1;
         }
     }
-    let info = DatasetInfo {
-        name: format!("tiny{dof}"),
-        dof,
-        units: "m".into(),
-        frame_rate: 10.0,
-        mount,
-        camera: CameraInfo {
-            width: W,
-            height: H,
-            fx: 20.0,
-            fy: 20.0,
-            cx: W as f64 / 2.0,
-            cy: H as f64 / 2.0,
-            distortion: [0.0; 5],
-        },
-        generator: None,
-    };
+    let info = info(format!("tiny{dof}"), dof, mount);
     let splits = Splits {
         train: vec!["s0".into(), "s1".into()],
         val: vec!["s2".into()],
@@ -145,14 +156,11 @@ pub fn make_flickering_walks(root: &Path, per_seq: usize, flicker: f64, seed: u6
             let u = (i * n_seq + s) as f64 / (n_seq * per_seq) as f64;
             let (x, y, h) = (4.0 * u, 0.8 * (3.0 * u).sin(), 1.5 * u - 0.5);
             let pose = Pose::from_euler_ypr(h, 0.0, 0.0, [x, y, 1.5]).unwrap();
-            let r = 30.0 + 50.0 * x + offset(3 * number);
-            let g = 128.0 + 100.0 * y + offset(3 * number + 1);
-            let b = 128.0 + 100.0 * h.sin() + offset(3 * number + 2);
-            RgbImage::from_fn(W, H, |u, v| {
-                let tex = (((u * 7 + v * 13) % 11) as f64 - 5.0) * 2.0;
-                let c = |m: f64| (m + tex).clamp(0.0, 255.0) as u8;
-                Rgb([c(r), c(g), c(b)])
-            })
+            textured([
+                30.0 + 50.0 * x + offset(3 * number),
+                128.0 + 100.0 * y + offset(3 * number + 1),
+                128.0 + 100.0 * h.sin() + offset(3 * number + 2),
+            ])
             .save(root.join("frames").join(format!("{number:06}.png")))
             .unwrap();
             frames.push(PoseFrame {
@@ -164,23 +172,7 @@ pub fn make_flickering_walks(root: &Path, per_seq: usize, flicker: f64, seed: u6
             number += 1;
         }
     }
-    let info = DatasetInfo {
-        name: "flickering walks".into(),
-        dof: 6,
-        units: "m".into(),
-        frame_rate: 10.0,
-        mount: Mount::Forward,
-        camera: CameraInfo {
-            width: W,
-            height: H,
-            fx: 20.0,
-            fy: 20.0,
-            cx: W as f64 / 2.0,
-            cy: H as f64 / 2.0,
-            distortion: [0.0; 5],
-        },
-        generator: None,
-    };
+    let info = info("flickering walks".into(), 6, Mount::Forward);
     let splits = Splits {
         train: (0..4).map(|s| format!("s{s}")).collect(),
         val: vec!["s4".into()],
