@@ -298,6 +298,24 @@ pub fn randomize_materials(world: &mut World, seed: u64) {
     }
 }
 
+/// Lighting randomisation for shape-biased training, beside [`randomize_materials`]: 0–80 % of
+/// the lights switched off (whole circuits, as [`Variant::SomeLightsOff`] does), the others at
+/// 50–120 % of their intensity, ambient light at 40–120 % and daylight at 30–120 %. Which lamps
+/// are lit is paint, not shape: a network that keys on lit fixtures or on the pools of light
+/// under them fails as soon as a circuit trips. No haze, smoke, debris or people: those stay
+/// unseen. Deterministic per `seed`.
+pub fn randomize_lighting(world: &mut World, seed: u64) {
+    let mut r = rng(seed, stream::LIGHTS ^ 0x11_6475);
+    let fraction = uniform(&mut r, 0.0, 0.8);
+    switch_off(world, fraction, &mut r);
+    for l in &mut world.lights {
+        l.intensity *= uniform(&mut r, 0.5, 1.2) as f32;
+    }
+    let a = &mut world.atmosphere;
+    a.ambient *= uniform(&mut r, 0.4, 1.2) as f32;
+    a.daylight *= uniform(&mut r, 0.3, 1.2) as f32;
+}
+
 fn splitmix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);

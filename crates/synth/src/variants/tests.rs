@@ -186,6 +186,42 @@ fn randomized_materials_are_independent_per_material_and_follow_the_seed() {
 }
 
 #[test]
+fn randomized_lighting_varies_over_seeds_keeps_geometry_and_follows_the_seed() {
+    let base = test_world::world();
+    let mut fractions = Vec::new();
+    for seed in 0..20 {
+        let mut world = base.clone();
+        randomize_lighting(&mut world, seed);
+        assert_eq!(world.triangles, base.triangles);
+        assert_eq!(world.atmosphere.haze, base.atmosphere.haze, "no smoke");
+        let f = off_fraction(&world);
+        assert!((0.0..=0.85).contains(&f), "seed {seed}: {f}");
+        fractions.push(f);
+        for (a, b) in base.lights.iter().zip(&world.lights) {
+            assert_eq!(a.position, b.position);
+            let ratio = b.intensity / a.intensity;
+            assert!(
+                (0.5..=1.2).contains(&ratio),
+                "seed {seed}: intensity x{ratio}"
+            );
+        }
+        let ambient = world.atmosphere.ambient / base.atmosphere.ambient;
+        assert!(
+            (0.4..=1.2).contains(&ambient),
+            "seed {seed}: ambient x{ambient}"
+        );
+        let mut again = base.clone();
+        randomize_lighting(&mut again, seed);
+        assert_eq!(again, world);
+    }
+    // Over twenty draws: some with every light on or nearly, some with most off.
+    let (lo, hi) = fractions
+        .iter()
+        .fold((1.0f64, 0.0f64), |(a, b), &f| (a.min(f), b.max(f)));
+    assert!(lo < 0.25 && hi > 0.5, "off fractions {lo}..{hi}");
+}
+
+#[test]
 fn hsv_round_trip() {
     for c in [
         [0.2, 0.5, 0.9],

@@ -71,10 +71,11 @@ pub struct DemoArgs {
     /// without). The training walks are shared out among them.
     #[arg(long, value_delimiter = ',', value_name = "VARIANTS")]
     train_variants: Vec<String>,
-    /// Shape-biased training: the training walks are rendered with randomised materials (a
-    /// new draw every 100 frames) and half the training views are restyled (random tone curves,
-    /// texture and coloured light, edges kept), so the network learns the building's shape
-    /// rather than its paint.
+    /// Shape-biased training: the training walks are rendered with randomised materials and
+    /// lighting (a new draw every 100 frames: every material's colour and pattern, which light
+    /// circuits are on, how bright) and half the training views are restyled (random tone
+    /// curves, texture and coloured light, edges kept), so the network learns the building's
+    /// shape rather than its paint and its lamps.
     #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]
     shape_bias: Option<bool>,
     /// Train a dominant-plane branch beside the pose (the renderer's depth and plane ids are
@@ -219,6 +220,7 @@ fn setup(args: &DemoArgs, data: &Path, model: &Path) -> Setup {
         train_mode: args.render_mode.clone(),
         test_variant: args.test_variant.clone(),
         random_materials: shape_bias,
+        random_lighting: shape_bias,
         depth: planes,
     };
     let mut train = TrainConfig::new(data, model);

@@ -72,6 +72,10 @@ pub struct ScenePlan {
     /// randomisation), a new draw every [`MATERIAL_CHUNK`] frames.
     #[serde(default, skip_serializing_if = "is_false")]
     pub random_materials: bool,
+    /// With `random_materials`, also randomise the lighting of each draw: some circuits off,
+    /// the others, ambient and daylight at random levels (`synth::variants::randomize_lighting`).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub random_lighting: bool,
     /// Also write every frame's depth and dominant-plane ids (`depth/`, `planes/`), which the
     /// plane task trains on.
     #[serde(default, skip_serializing_if = "is_false")]
@@ -379,6 +383,9 @@ fn render_sequences(
         };
         if let Some(seed) = materials {
             synth::variants::randomize_materials(&mut world, seed);
+            if plan.random_lighting {
+                synth::variants::randomize_lighting(&mut world, seed);
+            }
         }
         let people = (variant == Variant::People)
             .then(|| people(plan, &mut world, seqs))
@@ -500,8 +507,16 @@ pub fn render_variant_walks(
     variants: &[Variant],
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<()> {
+    // The walks are rendered plainly whichever model asks, so the key leaves out what the
+    // training walks alone use.
+    let plain = ScenePlan {
+        depth: false,
+        random_materials: false,
+        random_lighting: false,
+        ..plan.clone()
+    };
     let names: Vec<&str> = variants.iter().map(|v| v.name()).collect();
-    let key = format!("{}variant_walks = {names:?}\n", toml::to_string(plan)?);
+    let key = format!("{}variant_walks = {names:?}\n", toml::to_string(&plain)?);
     let plan_path = dir.join(PLAN_TOML);
     if std::fs::read_to_string(&plan_path).is_ok_and(|t| t == key)
         && dir.join(native::POSES_CSV).is_file()
@@ -515,11 +530,6 @@ pub fn render_variant_walks(
         .iter()
         .map(|&v| Sequence::new(format!("{TEST_SEQ}-{}", v.name()), v, frames.clone()))
         .collect();
-    let plain = ScenePlan {
-        depth: false,
-        random_materials: false,
-        ..plan.clone()
-    };
     render_sequences(&plain, dir, &seqs, progress)?;
     write_metadata(plan, dir, &seqs, &camera(plan)?, None)?;
     data::io::write_atomic(&plan_path, |w| w.write_all(key.as_bytes()))
@@ -562,6 +572,7 @@ pub fn render_cut_walk(
     let plain = ScenePlan {
         depth: false,
         random_materials: false,
+        random_lighting: false,
         ..plan.clone()
     };
     render_sequences(&plain, dir, &seqs, progress)?;
@@ -684,6 +695,7 @@ mod tests {
             train_mode: textured(),
             test_variant: normal(),
             random_materials: false,
+            random_lighting: false,
             depth: false,
         }
     }

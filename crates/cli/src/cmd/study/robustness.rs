@@ -5,7 +5,7 @@
 //! (`DIR/<model>/`, reused when there):
 //! - `baseline`: the building as built (with the quick demo's photometric jitter);
 //! - `shape`: shape-biased training, the training walks rendered with randomised materials and
-//!   half the views restyled (`demo --shape-bias`);
+//!   lighting and half the views restyled (`demo --shape-bias`);
 //! - `shape+planes`: the same plus the dominant-plane branch (`demo --shape-bias --planes`).
 //!
 //! All three are tested on one held-out walk rendered under each appearance variant
@@ -32,8 +32,11 @@ const QUICK_TRAIN_FRAMES: usize = 6000;
 /// Epochs per model with `--quick`.
 const QUICK_EPOCHS: usize = 8;
 
-/// The models compared: name, folder, extra demo options.
-const MODELS: [(&str, &str, &[&str]); 3] = [
+/// A model compared: name, folder, extra demo options.
+type Model = (&'static str, &'static str, &'static [&'static str]);
+
+/// The models compared.
+const MODELS: [Model; 3] = [
     ("baseline", "baseline", &[]),
     ("shape", "shape", &["--shape-bias"]),
     (
@@ -63,6 +66,14 @@ pub struct RobustnessArgs {
     out: PathBuf,
     #[command(flatten)]
     scale: super::Scale,
+    /// The models to train and compare, comma-separated (default: all three).
+    #[arg(long, value_delimiter = ',', value_name = "MODELS",
+          value_parser = ["baseline", "shape", "shape+planes"])]
+    models: Vec<String>,
+    /// The held-out variants to test under, comma-separated (default: all seven); the normal
+    /// walk is always tested, as every growth is measured against it.
+    #[arg(long, value_delimiter = ',', value_name = "VARIANTS")]
+    variants: Vec<Variant>,
     /// Monte-Carlo-dropout passes per test frame (0: one deterministic pass).
     #[arg(long, default_value_t = 0)]
     mc: usize,
@@ -91,9 +102,11 @@ struct ModelSummary {
     normal_median_pos_m: f64,
     /// Median of the growth over the held-out variants.
     median_growth: f64,
-    /// The largest growth, and the variant it came from.
+    /// The largest growth, the variant it came from, and the median position error there
+    /// (a growth alone flatters a model that is poor under normal conditions too).
     worst_growth: f64,
     worst_variant: String,
+    worst_median_pos_m: f64,
     /// Median validation error (normal conditions), metres.
     val_median_pos_m: f64,
     /// Share of validation cells whose plane class the plane branch gets right.
@@ -122,15 +135,30 @@ pub fn run(args: &RobustnessArgs) -> Result<()> {
         scale.train_frames = scale.train_frames.or(Some(QUICK_TRAIN_FRAMES));
         scale.epochs = scale.epochs.or(Some(QUICK_EPOCHS));
     }
+    let chosen: Vec<&Model> = MODELS
+        .iter()
+        .filter(|(name, _, _)| args.models.is_empty() || args.models.iter().any(|m| m == name))
+        .collect();
+    let held_out: Vec<Variant> = HELD_OUT
+        .into_iter()
+        .filter(|v| args.variants.is_empty() || args.variants.contains(v))
+        .collect();
+    ensure!(
+        !held_out.is_empty(),
+        "--variants names no held-out variant (one of: {})",
+        HELD_OUT.map(|v| v.name()).join(", ")
+    );
     let mut prepared = Vec::new();
-    for (k, (name, dir, extra)) in MODELS.iter().enumerate() {
-        say(&format!("model {} of {}: {name}", k + 1, MODELS.len()));
+    for (k, (name, dir, extra)) in chosen.iter().enumerate() {
+        say(&format!("model {} of {}: {name}", k + 1, chosen.len()));
         let mut options = vec!["--train-variants", "normal"];
         options.extend_from_slice(extra);
         let demo_args = super::demo_args(&args.out.join(dir), &scale, &options)?;
         prepared.push(demo::render_and_train(&demo_args, &say)?);
     }
-    let variants: Vec<Variant> = std::iter::once(Variant::Normal).chain(HELD_OUT).collect();
+    let variants: Vec<Variant> = std::iter::once(Variant::Normal)
+        .chain(held_out.iter().copied())
+        .collect();
     let walks = args.out.join("test-walks");
     say(&format!(
         "the held-out walk under {} appearances, into {}",
@@ -144,7 +172,7 @@ pub fn run(args: &RobustnessArgs) -> Result<()> {
     let mut rows = Vec::new();
     let mut results: Vec<Vec<Vec<FrameResult>>> = Vec::new();
     let mut models = Vec::new();
-    for ((name, _, _), p) in MODELS.iter().zip(&prepared) {
+    for ((name, _, _), p) in chosen.iter().zip(&prepared) {
         say(&format!("localizing the walks with {name}"));
         let per_variant = localize_variants(&ds, &p.model_dir, &variants, args.mc)?;
         let task = learn::checkpoint::ModelMeta::read(&p.model_dir)?
@@ -178,7 +206,8 @@ pub fn run(args: &RobustnessArgs) -> Result<()> {
             normal_median_pos_m: normal,
             median_growth: crate::output::median(&growth),
             worst_growth,
-            worst_variant: HELD_OUT[worst].name().to_string(),
+            worst_variant: held_out[worst].name().to_string(),
+            worst_median_pos_m: evals[1 + worst].pos_median,
             val_median_pos_m: p.val_median_pos_m(),
             val_plane_accuracy: meta
                 .history
@@ -189,7 +218,8 @@ pub fn run(args: &RobustnessArgs) -> Result<()> {
         results.push(per_variant);
     }
     let report = args.out.join("report.html");
-    write_report(&report, &rows, &models, &variants, &results)?;
+    let names: Vec<&str> = chosen.iter().map(|(name, _, _)| *name).collect();
+    write_report(&report, &rows, &models, &names, &variants, &results)?;
     let out = StudyOutput {
         frames: results[0][0].len(),
         rows,
@@ -261,6 +291,7 @@ fn summary_table(models: &[ModelSummary]) -> Table {
             "median growth",
             "worst growth",
             "worst variant",
+            "there (m)",
             "val (m)",
             "plane classes",
         ],
@@ -272,6 +303,7 @@ fn summary_table(models: &[ModelSummary]) -> Table {
             format!("{:.2}", m.median_growth),
             format!("{:.2}", m.worst_growth),
             m.worst_variant.clone(),
+            format!("{:.3}", m.worst_median_pos_m),
             format!("{:.3}", m.val_median_pos_m),
             m.val_plane_accuracy
                 .map_or("–".into(), |a| format!("{:.1} %", 100.0 * a)),
@@ -284,15 +316,16 @@ fn write_report(
     path: &Path,
     rows: &[Row],
     models: &[ModelSummary],
+    names: &[&str],
     variants: &[Variant],
     results: &[Vec<Vec<FrameResult>>],
 ) -> Result<()> {
     let mut page = HtmlReport::new("Robustness to appearance change");
     page.paragraph(
-        "Three networks trained on walks under normal conditions only: the baseline on the \
-         building as built, 'shape' with shape-biased training (randomised materials in the \
-         training renders, half the views restyled), 'shape+planes' with the dominant-plane task \
-         beside it. Each is tested on one held-out walk rendered under every appearance \
+        "Networks trained on walks under normal conditions only: the baseline on the \
+         building as built, 'shape' with shape-biased training (randomised materials and \
+         lighting in the training renders, half the views restyled), 'shape+planes' with \
+         the dominant-plane task beside it. Each is tested on one held-out walk rendered under every appearance \
          variant: the same poses, only lights, people, furniture, posters, damage or paint \
          change. Growth is a model's median position error under a variant over its own \
          under normal conditions.",
@@ -301,10 +334,10 @@ fn write_report(
     page.table(&table(rows));
     for (v, variant) in variants.iter().enumerate() {
         let series = |f: fn(&FrameResult) -> f64| -> Vec<Series> {
-            MODELS
+            names
                 .iter()
                 .zip(results)
-                .map(|((name, _, _), r)| Series::new(*name, r[v].iter().map(f).collect::<Vec<_>>()))
+                .map(|(name, r)| Series::new(*name, r[v].iter().map(f).collect::<Vec<_>>()))
                 .collect()
         };
         let cdf = report::error_cdf(
