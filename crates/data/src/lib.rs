@@ -8,6 +8,8 @@
 //! formats, the line.
 //!
 //! # Entry points
+//! - [`posed::open`]: any posed image collection (images, poses, depth) for training and
+//!   localizing, with splits per frame ([`blocks::BlockSplit`] for single recordings).
 //! - [`formats::read`] / [`formats::detect`]: any supported format, told from its content.
 //! - One module per format with `read` and `write`: [`native`], [`sevenscenes`], [`cambridge`],
 //!   [`tum`], [`colmap`], [`nerf`], [`robotlog`], [`jsonl`].
@@ -28,6 +30,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod blocks;
 pub mod cambridge;
 pub mod colmap;
 pub mod concat;
@@ -41,6 +44,7 @@ pub mod jsonl;
 pub mod matching;
 pub mod native;
 pub mod nerf;
+pub mod posed;
 pub mod robotlog;
 pub mod sevenscenes;
 #[cfg(test)]

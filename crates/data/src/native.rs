@@ -469,9 +469,19 @@ pub fn write_metadata(
 }
 
 /// Path of a frame's image in one of a native dataset's image folders (`frames`, `depth`,
-/// `planes`): `root/<folder>/NNNNNN.png`.
+/// `planes`): `root/<folder>/NNNNNN.png`, or the frame's `.jpg` / `.jpeg` when there is no PNG
+/// (colour frames of real cameras come as JPEG; re-encoding them would only cost disk).
 pub fn image_path(root: &Path, folder: &str, frame: u64) -> PathBuf {
-    root.join(folder).join(format!("{}.png", frame_name(frame)))
+    let dir = root.join(folder);
+    let png = dir.join(format!("{}.png", frame_name(frame)));
+    if png.is_file() {
+        return png;
+    }
+    ["jpg", "jpeg"]
+        .iter()
+        .map(|ext| dir.join(format!("{}.{ext}", frame_name(frame))))
+        .find(|p| p.is_file())
+        .unwrap_or(png)
 }
 
 /// Splits sequence names (recording days or sessions: the unit that must not straddle splits)

@@ -5,7 +5,9 @@
 use std::path::{Path, PathBuf};
 
 use data::PoseFrame;
-use data::native::{self, DatasetInfo, NativeDataset, SplitName, Splits};
+use data::blocks::BlockSplit;
+use data::native::{self, DatasetInfo, SplitName, Splits};
+use data::posed::{self, Layout, PosedDataset, PosedImage, SplitPlan};
 use geom::Pose;
 use imgproc::view::{View, ViewSpec};
 use rayon::prelude::*;
@@ -45,10 +47,12 @@ impl Samples {
     }
 
     /// Sequence and frame number of sample `i`, from its `seq/frame` name; `None` when the
-    /// frame is not named by a number (posed photos).
+    /// frame's name does not end in a number (posed photos).
     pub fn frame_key(&self, i: usize) -> Option<(&str, u64)> {
         let (seq, frame) = self.names.get(i)?.rsplit_once('/')?;
-        Some((seq, frame.parse().ok()?))
+        // `000012` (native), `frame-000012` (7-Scenes): the number the name ends with.
+        let digits = frame.len() - frame.trim_end_matches(|c: char| c.is_ascii_digit()).len();
+        Some((seq, frame[frame.len() - digits..].parse().ok()?))
     }
 
     /// Values per view.
@@ -111,103 +115,131 @@ struct Shot {
     path: PathBuf,
 }
 
-/// Opens a dataset: a native folder (with `splits.toml`, or splits made by
-/// [`native::split_by_sequence`] seeded by `seed`), or posed photos in NeRF `transforms.json`
-/// form (the file or its folder; frames without an image are skipped, as instant-ngp does, and
-/// every [`HOLDOUT_EVERY`]-th frame is held out for validation). Returns the metadata and the
-/// train and validation shots.
-fn open(root: &Path, seed: u64) -> Result<(DatasetInfo, Splits, Vec<Shot>, Vec<Shot>)> {
-    if is_nerf(root) {
-        return open_nerf(root);
-    }
-    let (info, trajectory, splits) = if root.join(native::SPLITS_TOML).is_file() {
-        let ds = NativeDataset::open(root)?;
-        (ds.info, ds.trajectory, ds.splits)
-    } else {
-        let info = DatasetInfo::read(&root.join(native::DATASET_TOML))?;
-        let trajectory = native::read(root)?;
-        let mut seqs: Vec<String> = trajectory.frames.iter().map(|f| f.seq.clone()).collect();
-        seqs.sort();
-        seqs.dedup();
-        let splits = native::split_by_sequence(&seqs, DEFAULT_VAL_FRACTION, 0.0, seed);
-        (info, trajectory, splits)
+/// Opens a dataset in any layout [`data::posed::open`] reads and splits it:
+/// - `blocks` given: blocks of every sequence ([`BlockSplit`]), training and validation parts;
+/// - a native folder with `splits.toml`: its sequences; without one, sequences split by
+///   [`native::split_by_sequence`] seeded by `seed` (synthetic walks are many sequences);
+/// - posed photos without an order (NeRF, COLMAP): every [`HOLDOUT_EVERY`]-th frame validates;
+/// - recordings (7-Scenes, TUM, Cambridge): the dataset's own split with validation blocks cut
+///   from its training sequences, else the default blocks.
+///
+/// Returns the metadata and the train and validation shots.
+fn open(
+    root: &Path,
+    seed: u64,
+    blocks: Option<BlockSplit>,
+) -> Result<(DatasetInfo, Splits, Vec<Shot>, Vec<Shot>)> {
+    let ds = posed::open(root)?;
+    let shot = |img: &PosedImage| Shot {
+        frame: img.frame.clone(),
+        path: img.image.clone(),
     };
-    let shots = |which: SplitName| -> Result<Vec<Shot>> {
-        let seqs = splits.get(which);
-        trajectory
-            .frames
-            .iter()
-            .filter(|f| seqs.contains(&f.seq))
-            .map(|f| {
-                Ok(Shot {
-                    path: frame_path(root, f)?,
-                    frame: f.clone(),
-                })
-            })
-            .collect()
+    let info = match &ds.info {
+        Some(info) => info.clone(),
+        None => info_of(&ds)?,
     };
-    let (train, val) = (shots(SplitName::Train)?, shots(SplitName::Val)?);
-    Ok((info, splits, train, val))
-}
-
-/// True when `root` holds posed photos in NeRF form rather than a native dataset.
-fn is_nerf(root: &Path) -> bool {
-    root.extension().is_some_and(|e| e == "json") || root.join("transforms.json").is_file()
-}
-
-/// Degrees of freedom of the dataset at `root`: `dataset.toml`'s `dof`, 6 for posed photos.
-pub fn dof(root: &Path) -> Result<u8> {
-    if is_nerf(root) {
-        return Ok(6);
+    if let Some(b) = blocks {
+        let plan = SplitPlan::Blocks(b);
+        let part = |w| ds.split(plan, w).into_iter().map(shot).collect::<Vec<_>>();
+        let splits = Splits {
+            train: vec![format!("blocks {b}: training blocks")],
+            val: vec![format!("blocks {b}: validation blocks")],
+            test: vec![format!("blocks {b}: held-out blocks")],
+        };
+        return Ok((info, splits, part(SplitName::Train), part(SplitName::Val)));
     }
-    Ok(DatasetInfo::read(&root.join(native::DATASET_TOML))?.dof)
-}
-
-/// Posed photos in NeRF form, read directly (see [`open`]).
-fn open_nerf(root: &Path) -> Result<(DatasetInfo, Splits, Vec<Shot>, Vec<Shot>)> {
-    let (trajectory, images) = data::nerf::read_with_images(root)?;
-    let camera = trajectory.camera.ok_or_else(|| {
-        LearnError::Input(format!(
-            "{}: the frames have different cameras; a pose network learns one camera",
-            root.display()
-        ))
-    })?;
-    let (mut train, mut val) = (Vec::new(), Vec::new());
-    let present = trajectory
-        .frames
-        .into_iter()
-        .zip(images)
-        .filter(|(_, path)| path.is_file());
-    for (i, (frame, path)) in present.enumerate() {
-        let shot = Shot { frame, path };
-        if i % HOLDOUT_EVERY == HOLDOUT_EVERY - 1 {
-            val.push(shot);
-        } else {
-            train.push(shot);
+    match ds.layout {
+        Layout::Native => {
+            let splits = ds.own_split.clone().unwrap_or_else(|| {
+                let mut seqs: Vec<String> = ds.images.iter().map(|i| i.frame.seq.clone()).collect();
+                seqs.sort();
+                seqs.dedup();
+                native::split_by_sequence(&seqs, DEFAULT_VAL_FRACTION, 0.0, seed)
+            });
+            let part = |w: SplitName| -> Vec<Shot> {
+                let seqs = splits.get(w);
+                ds.images
+                    .iter()
+                    .filter(|i| seqs.contains(&i.frame.seq))
+                    .map(shot)
+                    .collect()
+            };
+            let (train, val) = (part(SplitName::Train), part(SplitName::Val));
+            Ok((info, splits, train, val))
+        }
+        Layout::Nerf | Layout::Colmap => {
+            let (mut train, mut val) = (Vec::new(), Vec::new());
+            for (i, img) in ds.images.iter().enumerate() {
+                if i % HOLDOUT_EVERY == HOLDOUT_EVERY - 1 {
+                    val.push(shot(img));
+                } else {
+                    train.push(shot(img));
+                }
+            }
+            let splits = Splits {
+                train: vec![format!("every frame but each {HOLDOUT_EVERY}th")],
+                val: vec![format!("every {HOLDOUT_EVERY}th frame")],
+                test: Vec::new(),
+            };
+            Ok((info, splits, train, val))
+        }
+        Layout::SevenScenes | Layout::Tum | Layout::Cambridge => {
+            let plan = SplitPlan::Auto;
+            let part = |w| ds.split(plan, w).into_iter().map(shot).collect::<Vec<_>>();
+            let splits = Splits {
+                train: vec![ds.describe_split(plan)],
+                val: vec!["validation part of that split".into()],
+                test: Vec::new(),
+            };
+            Ok((info, splits, part(SplitName::Train), part(SplitName::Val)))
         }
     }
-    let info = DatasetInfo {
-        name: format!("posed photos {}", root.display()),
+}
+
+/// `dataset.toml` of a dataset in another tool's layout: a forward 6-DoF camera in metres (the
+/// units of COLMAP and NeRF worlds are whatever their tool chose).
+fn info_of(ds: &PosedDataset) -> Result<DatasetInfo> {
+    let camera = ds.require_camera().map_err(|e| {
+        LearnError::Input(format!(
+            "{e}; a pose network learns one camera: convert the dataset to the native layout \
+             with its intrinsics"
+        ))
+    })?;
+    let units = match ds.layout {
+        Layout::Nerf | Layout::Colmap => "arbitrary",
+        _ => "m",
+    };
+    Ok(DatasetInfo {
+        name: ds.name(),
         dof: 6,
-        units: "arbitrary".into(),
+        units: units.into(),
         frame_rate: 0.0,
         mount: geom::Mount::Forward,
         camera: native::CameraInfo::from_camera(&camera),
         generator: None,
-    };
-    let splits = Splits {
-        train: vec![format!("every frame but each {HOLDOUT_EVERY}th")],
-        val: vec![format!("every {HOLDOUT_EVERY}th frame")],
-        test: Vec::new(),
-    };
-    Ok((info, splits, train, val))
+    })
 }
 
-/// Reads the train and validation frames of the native dataset at `root` and makes their views.
+/// Degrees of freedom of the dataset at `root`: a native `dataset.toml`'s `dof`, else 6.
+pub fn dof(root: &Path) -> Result<u8> {
+    let native_toml = root.join(native::DATASET_TOML);
+    if native_toml.is_file() {
+        return Ok(DatasetInfo::read(&native_toml)?.dof);
+    }
+    Ok(6)
+}
+
+/// Reads the train and validation frames of the dataset at `root` (any layout of [`open`]) and
+/// makes their views.
 /// Errors name the file: a missing or undecodable image, a view of another size than the
 /// first, an empty split.
-pub fn load(root: &Path, spec: &ViewSpec, seed: u64) -> Result<TrainData> {
-    let (info, splits, train, val) = open(root, seed)?;
+pub fn load(
+    root: &Path,
+    spec: &ViewSpec,
+    seed: u64,
+    blocks: Option<BlockSplit>,
+) -> Result<TrainData> {
+    let (info, splits, train, val) = open(root, seed, blocks)?;
     let splits_path = root.join(native::SPLITS_TOML);
     if train.is_empty() {
         return Err(LearnError::Input(format!(
@@ -283,20 +315,6 @@ fn available_memory() -> Option<u64> {
     let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib * 1024)
-}
-
-/// The image file of a frame: `frames/<name>.png`, the name read as a frame number.
-fn frame_path(root: &Path, frame: &PoseFrame) -> Result<PathBuf> {
-    let number: u64 = frame.name.parse().map_err(|_| {
-        LearnError::Input(format!(
-            "{}: frame name '{}' is not a frame number",
-            root.join(native::POSES_CSV).display(),
-            frame.name
-        ))
-    })?;
-    Ok(root
-        .join("frames")
-        .join(format!("{}.png", native::frame_name(number))))
 }
 
 /// Reads, hashes and views one image.

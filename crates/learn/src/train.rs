@@ -161,6 +161,10 @@ pub struct TrainConfig {
     /// dataset needs depth for every frame (and plane ids, else planes are found in the depth).
     #[serde(default)]
     pub planes: bool,
+    /// Split the dataset's sequences into blocks of consecutive frames (train / validation);
+    /// `None`: the dataset's own split, else the default blocks ([`data::posed::SplitPlan`]).
+    #[serde(default)]
+    pub blocks: Option<data::blocks::BlockSplit>,
     /// Stop after this many epochs without a better validation median position error.
     pub patience: Option<usize>,
     /// Seed of initialisation, shuffling and dropout.
@@ -203,6 +207,7 @@ impl TrainConfig {
             augment: false,
             shape_bias: false,
             planes: false,
+            blocks: None,
             patience: Some(10),
             seed: 0,
             resume: false,
@@ -536,7 +541,7 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
     let spec = ViewSpec::resolve(cfg.view.as_deref().unwrap_or(default_view))
         .map_err(|e| LearnError::Config(e.to_string()))?;
     checkpoint::check_bounds(&spec, cfg.hidden).map_err(LearnError::Config)?;
-    let mut data = dataset::load(&cfg.data, &spec, cfg.seed)?;
+    let mut data = dataset::load(&cfg.data, &spec, cfg.seed, cfg.blocks)?;
     let planes = if cfg.planes {
         let (train_planes, val_planes, files_hash) = plane_targets(cfg, &data)?;
         data.hash = format!("{}-planes{files_hash:016x}", data.hash);

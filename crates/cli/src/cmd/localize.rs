@@ -4,13 +4,14 @@
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
-use data::formats::{self, Format};
+use data::blocks::BlockSplit;
 use data::frames::{self, FrameSource};
-use data::native::{NativeDataset, SplitName};
-use data::{PoseFrame, cambridge, sevenscenes};
+use data::native::SplitName;
+use data::posed::{self, SplitPlan};
 use learn::place::{PlaceLocalizer, PlaceMeta, PlacePrediction};
 use learn::seq::{SeqLocalizer, SeqMeta, SeqTracker};
 use learn::{Estimate, Localizer};
+use map::retrieval::{Keyframe, RetrievalIndex};
 use serde::Serialize;
 use std::collections::VecDeque;
 use std::io::Write;
@@ -26,7 +27,7 @@ pub enum OutFormat {
     Tum,
 }
 
-/// Which frames of a native dataset.
+/// Which frames of a posed dataset.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Split {
     /// Every frame.
@@ -43,10 +44,17 @@ pub enum Split {
 #[derive(Args, Debug)]
 pub struct LocalizeArgs {
     /// Checkpoint folder written by `indoorloc train`.
-    #[arg(long, value_name = "MODEL")]
-    model: PathBuf,
-    /// An image, an image folder, a video file, a native dataset folder, a 7-Scenes scene or
-    /// sequence folder, or a Cambridge list file (dataset_test.txt).
+    #[arg(long, value_name = "MODEL", required_unless_present = "retrieve")]
+    model: Option<PathBuf>,
+    /// No network: answer each frame with the pose of the most similar training frame of this
+    /// posed dataset (its training part under --blocks or its own split; a thumbnail
+    /// descriptor, see `map::retrieval`). `sigma_pos_m` / `sigma_rot_deg` are the spread of the
+    /// five most similar frames.
+    #[arg(long, value_name = "DATASET", conflicts_with = "model")]
+    retrieve: Option<PathBuf>,
+    /// An image, an image folder, a video file, or a posed dataset: a native folder, a 7-Scenes
+    /// scene or sequence, a TUM RGB-D folder, a COLMAP model, a Cambridge list or scene folder,
+    /// a NeRF transforms.json.
     input: PathBuf,
     /// Monte-Carlo-dropout passes per frame (0: one deterministic pass, no uncertainty).
     #[arg(long, default_value_t = 16)]
@@ -63,10 +71,14 @@ pub struct LocalizeArgs {
     /// Output format.
     #[arg(long, value_enum, default_value_t = OutFormat::Jsonl)]
     format: OutFormat,
-    /// For a native dataset or a 7-Scenes scene (TrainSplit.txt / TestSplit.txt): which
-    /// split's frames.
+    /// For a posed dataset: which split's frames (the dataset's own split, else blocks of
+    /// consecutive frames; see --blocks).
     #[arg(long, value_enum, default_value_t = Split::All)]
     split: Split,
+    /// Split every sequence into blocks, BLOCK:EVERY[:OFFSET], as `train --blocks` did (the
+    /// same value gives the same held-out frames).
+    #[arg(long, value_name = "BLOCK:EVERY[:OFFSET]")]
+    blocks: Option<BlockSplit>,
     /// Write to this file (atomically, when all frames are done) instead of stdout.
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
@@ -92,6 +104,61 @@ pub struct LocalizeArgs {
 enum Estimator<'a> {
     Single(Localizer),
     Sequence(&'a SeqLocalizer, SeqTracker<'a>),
+    Retrieval(RetrievalIndex),
+}
+
+/// The place and sequence models in the folder `model`, as the options ask for them; checks
+/// that the model's camera mount is the input's.
+fn load_models(
+    args: &LocalizeArgs,
+    model: &Path,
+) -> Result<(Option<PlaceLocalizer>, Option<SeqLocalizer>)> {
+    let places = if PlaceMeta::exists(model) {
+        Some(PlaceLocalizer::load(model)?)
+    } else {
+        None
+    };
+    let place_only = places.is_some() && !model.join(learn::checkpoint::MODEL_TOML).is_file();
+    if place_only && args.format == OutFormat::Tum {
+        bail!(
+            "{}: holds a place model only; TUM lines need poses (use --format jsonl)",
+            model.display()
+        );
+    }
+    if !place_only {
+        check_mount(model, &args.input)?;
+    }
+    let sequence = if SeqMeta::exists(model) && !args.single && !place_only {
+        Some(SeqLocalizer::load(model)?.with_seed(args.mc_seed))
+    } else {
+        None
+    };
+    Ok((places, sequence))
+}
+
+/// The retrieval index of the training part of the posed dataset at `path`.
+fn retrieval_index(path: &Path, blocks: Option<BlockSplit>) -> Result<RetrievalIndex> {
+    let ds = posed::open(path)?;
+    let plan = blocks.map_or(SplitPlan::Auto, SplitPlan::Blocks);
+    let frames: Vec<(PathBuf, Keyframe)> = ds
+        .split(plan, SplitName::Train)
+        .into_iter()
+        .map(|img| {
+            let key = Keyframe {
+                name: format!("{}/{}", img.frame.seq, img.frame.name),
+                pose: img.frame.pose,
+            };
+            (img.image.clone(), key)
+        })
+        .collect();
+    if frames.is_empty() {
+        bail!(
+            "{}: no training frames to retrieve from ({})",
+            path.display(),
+            ds.describe_split(plan)
+        );
+    }
+    Ok(RetrievalIndex::build(&frames)?)
 }
 
 /// One output line in JSON lines format.
@@ -208,35 +275,37 @@ struct Item {
 
 /// Runs `indoorloc localize`.
 pub fn run(args: &LocalizeArgs) -> Result<()> {
-    let places = if PlaceMeta::exists(&args.model) {
-        Some(PlaceLocalizer::load(&args.model)?)
-    } else {
-        None
+    let (places, sequence) = match (&args.retrieve, &args.model) {
+        (Some(_), _) => (None, None),
+        (None, Some(model)) => load_models(args, model)?,
+        (None, None) => bail!("give --model MODEL or --retrieve DATASET"),
     };
-    let place_only = places.is_some() && !args.model.join(learn::checkpoint::MODEL_TOML).is_file();
-    if place_only && args.format == OutFormat::Tum {
-        bail!(
-            "{}: holds a place model only; TUM lines need poses (use --format jsonl)",
-            args.model.display()
-        );
+    let mut estimator = match &args.retrieve {
+        Some(path) => Some(Estimator::Retrieval(retrieval_index(path, args.blocks)?)),
+        None => None,
+    };
+    let place_only = places.is_some()
+        && args
+            .model
+            .as_ref()
+            .is_some_and(|m| !m.join(learn::checkpoint::MODEL_TOML).is_file());
+    if estimator.is_none() {
+        estimator = match &sequence {
+            Some(seq) => Some(Estimator::Sequence(seq, seq.tracker(args.mc))),
+            None if place_only => None,
+            None => args
+                .model
+                .as_ref()
+                .map(|m| -> Result<Estimator<'_>> {
+                    Ok(Estimator::Single(
+                        Localizer::load(m)?
+                            .with_tta(args.tta)
+                            .with_seed(args.mc_seed),
+                    ))
+                })
+                .transpose()?,
+        };
     }
-    if !place_only {
-        check_mount(&args.model, &args.input)?;
-    }
-    let sequence = if SeqMeta::exists(&args.model) && !args.single && !place_only {
-        Some(SeqLocalizer::load(&args.model)?.with_seed(args.mc_seed))
-    } else {
-        None
-    };
-    let mut estimator = match &sequence {
-        Some(seq) => Some(Estimator::Sequence(seq, seq.tracker(args.mc))),
-        None if place_only => None,
-        None => Some(Estimator::Single(
-            Localizer::load(&args.model)?
-                .with_tta(args.tta)
-                .with_seed(args.mc_seed),
-        )),
-    };
     if args.place_lag.is_nan() || args.place_lag < 0.0 {
         bail!("--place-lag {}: must be 0 or more seconds", args.place_lag);
     }
@@ -252,7 +321,7 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
         None => Vec::new(),
     };
     let mut last_seq: Option<Option<String>> = None;
-    let items = frames_of(&args.input, args.split)?;
+    let items = frames_of(&args.input, args.split, args.blocks)?;
     let mut buffer = Vec::new();
     let stdout = std::io::stdout();
     let mut lock = stdout.lock();
@@ -287,6 +356,18 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
                 Some(tracker.step(&view))
             }
             Some(Estimator::Single(loc)) => Some(loc.predict(&img, args.mc)),
+            Some(Estimator::Retrieval(index)) => Some(
+                index
+                    .localize(&img)
+                    .map(|r| Estimate {
+                        pose: r.pose,
+                        pose3: None,
+                        sigma_pos_m: r.sigma_pos_m,
+                        sigma_rot_deg: r.sigma_rot_deg,
+                        passes: 0,
+                    })
+                    .map_err(|e| learn::LearnError::Input(e.to_string())),
+            ),
         }
         .transpose()
         .with_context(|| format!("frame {}", item.name))?;
@@ -363,94 +444,6 @@ fn tell(
     Ok(())
 }
 
-/// Where a posed frame's image is.
-type ImageOf = Box<dyn Fn(&PoseFrame) -> PathBuf>;
-
-/// The frames of a posed collection in another tool's layout, decoded lazily: a 7-Scenes scene
-/// or sequence folder (`frame-NNNNNN.color.png` beside each pose file; `split` from its split
-/// files) or a Cambridge list (image paths relative to the list's folder). `None` for anything
-/// else. Frames keep the reader's names and sequences, so `eval` pairs the output with the
-/// same poses.
-fn posed_frames(input: &Path, split: Split) -> Result<Option<Box<dyn Iterator<Item = Item>>>> {
-    let is_list = input.is_file()
-        && input
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("txt"));
-    if !(input.is_dir() || is_list) {
-        return Ok(None);
-    }
-    let Ok(format) = formats::detect(input) else {
-        return Ok(None);
-    };
-    let (frames, image_of): (Vec<PoseFrame>, ImageOf) = match format {
-        Format::SevenScenes => {
-            let traj = sevenscenes::read(input)?;
-            let keep: Option<Vec<String>> = match split {
-                Split::All => None,
-                Split::Train | Split::Test => {
-                    let s = sevenscenes::read_split(input)?;
-                    Some(if split == Split::Train {
-                        s.train
-                    } else {
-                        s.test
-                    })
-                }
-                Split::Val => bail!(
-                    "{}: 7-Scenes has train and test splits, not val",
-                    input.display()
-                ),
-            };
-            let frames: Vec<PoseFrame> = traj
-                .frames
-                .into_iter()
-                .filter(|f| keep.as_ref().is_none_or(|k| k.contains(&f.seq)))
-                .collect();
-            // A sequence folder holds its frames; a scene folder holds seq-XX folders.
-            let in_seq = frames.first().is_some_and(|f| {
-                input
-                    .join(format!("{}{}", f.name, sevenscenes::POSE_SUFFIX))
-                    .is_file()
-            });
-            let root = input.to_path_buf();
-            (
-                frames,
-                Box::new(move |f: &PoseFrame| {
-                    let dir = if in_seq {
-                        root.clone()
-                    } else {
-                        root.join(&f.seq)
-                    };
-                    dir.join(format!("{}.color.png", f.name))
-                }),
-            )
-        }
-        Format::Cambridge => {
-            if split != Split::All {
-                bail!(
-                    "{}: a Cambridge list is one split already; leave out --split",
-                    input.display()
-                );
-            }
-            let root = input.parent().unwrap_or(Path::new(".")).to_path_buf();
-            (
-                cambridge::read(input)?.frames,
-                Box::new(move |f: &PoseFrame| root.join(&f.name)),
-            )
-        }
-        _ => return Ok(None),
-    };
-    if frames.is_empty() {
-        bail!("{}: the {split:?} split has no frames", input.display());
-    }
-    Ok(Some(Box::new(frames.into_iter().map(move |f| Item {
-        image: frames::decode_image(&image_of(&f)).map_err(Into::into),
-        name: f.name,
-        seq: (!f.seq.is_empty()).then_some(f.seq),
-        t: f.t,
-        new_scene: false,
-    }))))
-}
-
 /// A pose model localizes the camera it was trained for: a native dataset whose `dataset.toml`
 /// records another mount (a ceiling camera's frames for a forward camera's model, or the other
 /// way) is refused, as its poses would be decoded in the wrong frame.
@@ -473,43 +466,56 @@ fn check_mount(model: &Path, input: &Path) -> Result<()> {
     Ok(())
 }
 
-/// The frames of `input`, decoded lazily: a native dataset's frames (of `split`), a 7-Scenes or
-/// Cambridge collection's ([`posed_frames`]), or any frame source `data::frames` opens (image,
-/// image folder, video).
-fn frames_of(input: &Path, split: Split) -> Result<Box<dyn Iterator<Item = Item>>> {
-    if let Some(items) = posed_frames(input, split)? {
-        return Ok(items);
-    }
-    if input.join("dataset.toml").is_file() {
-        let ds = NativeDataset::open(input)?;
-        let indices: Vec<usize> = match split {
-            Split::All => (0..ds.trajectory.len()).collect(),
-            Split::Train => ds.split_frames(SplitName::Train),
-            Split::Val => ds.split_frames(SplitName::Val),
-            Split::Test => ds.split_frames(SplitName::Test),
+/// The frames of `input`, decoded lazily: a posed dataset's frames (of `split`, from
+/// [`data::posed::open`] in any layout it reads), or any frame source `data::frames` opens
+/// (image, image folder, video). A dataset's new sequences, gaps in its frames (frames of
+/// another split between) and its own cuts start a new scene. Frames keep the reader's names
+/// and sequences, so `eval` pairs the output with the same poses.
+fn frames_of(
+    input: &Path,
+    split: Split,
+    blocks: Option<BlockSplit>,
+) -> Result<Box<dyn Iterator<Item = Item>>> {
+    if posed::is_dataset(input) {
+        let ds = posed::open(input)?;
+        let plan = blocks.map_or(SplitPlan::Auto, SplitPlan::Blocks);
+        let parts = ds.parts(plan);
+        let want = match split {
+            Split::All => None,
+            Split::Train => Some(SplitName::Train),
+            Split::Val => Some(SplitName::Val),
+            Split::Test => Some(SplitName::Test),
         };
+        let indices: Vec<usize> = (0..ds.images.len())
+            .filter(|&i| want.is_none_or(|w| parts[i] == Some(w)))
+            .collect();
         if indices.is_empty() {
-            bail!("{}: the {split:?} split has no frames", input.display());
+            bail!(
+                "{}: the {split:?} split has no frames ({})",
+                input.display(),
+                ds.describe_split(plan)
+            );
         }
-        let cuts = ds.cuts.clone().unwrap_or_default();
-        let mut previous: Option<u64> = None;
-        return Ok(Box::new(indices.into_iter().filter_map(move |i| {
-            let frame = ds.frame_number(i)?;
-            let f = &ds.trajectory.frames[i];
-            let gap = previous.is_some_and(|p| p + 1 != frame);
-            previous = Some(frame);
-            Some(Item {
+        let mut previous: Option<usize> = None;
+        return Ok(Box::new(indices.into_iter().map(move |i| {
+            let img = &ds.images[i];
+            let new_seq = i > 0 && ds.images[i - 1].frame.seq != img.frame.seq;
+            let gap = previous.is_some_and(|p| p + 1 != i);
+            previous = Some(i);
+            let f = &img.frame;
+            Item {
                 name: f.name.clone(),
                 seq: (!f.seq.is_empty()).then(|| f.seq.clone()),
                 t: f.t,
-                new_scene: gap || cuts.binary_search(&frame).is_ok(),
-                image: frames::decode_image(&ds.frame_path(frame)).map_err(Into::into),
-            })
+                new_scene: gap || new_seq || ds.cuts.binary_search(&i).is_ok(),
+                image: frames::decode_image(&img.image).map_err(Into::into),
+            }
         })));
     }
-    if split != Split::All {
+    if split != Split::All || blocks.is_some() {
         bail!(
-            "{}: --split needs a native dataset or 7-Scenes scene folder",
+            "{}: --split and --blocks need a posed dataset (native, 7-Scenes, TUM, COLMAP, \
+             Cambridge, NeRF)",
             input.display()
         );
     }

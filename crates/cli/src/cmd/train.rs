@@ -1,4 +1,4 @@
-//! `indoorloc train`: trains a pose-regression network on a native dataset, with a checkpoint
+//! `indoorloc train`: trains a pose-regression network on a posed dataset, with a checkpoint
 //! every epoch (`--resume` continues from it).
 
 use crate::output::{print_json, print_text};
@@ -37,9 +37,17 @@ impl TaskArg {
 /// Arguments of `indoorloc train`.
 #[derive(Args, Debug)]
 pub struct TrainArgs {
-    /// Native dataset folder (train / val split by sequence from its splits.toml).
-    #[arg(long, value_name = "DIR")]
+    /// Posed images in any layout `data` opens: a native folder (train / val by sequence from
+    /// its splits.toml), a 7-Scenes scene or sequence, a TUM RGB-D folder, a COLMAP model, a
+    /// Cambridge scene, a NeRF transforms.json.
+    #[arg(long, value_name = "DATASET")]
     data: PathBuf,
+    /// Split every sequence into blocks of consecutive frames, BLOCK:EVERY[:OFFSET] (100:5: the
+    /// last block of every five held out for testing, validation blocks cut from the rest the
+    /// same way); default: the dataset's own split, else 100:5 for recordings without one.
+    /// Pass the same value to `localize --blocks` to localize the held-out frames.
+    #[arg(long, value_name = "BLOCK:EVERY[:OFFSET]")]
+    blocks: Option<data::blocks::BlockSplit>,
     /// Checkpoint folder (model.toml, model.bpk, training state).
     #[arg(long, value_name = "MODEL")]
     out: PathBuf,
@@ -191,6 +199,7 @@ impl TrainArgs {
         cfg.augment = self.augment;
         cfg.shape_bias = self.shape_bias;
         cfg.planes = self.planes;
+        cfg.blocks = self.blocks;
         cfg.patience = Some(self.patience);
         cfg.seed = self.seed;
         cfg.resume = self.resume;

@@ -315,7 +315,7 @@ pub fn train_place(
         .map_err(|e| LearnError::Config(e.to_string()))?;
     crate::checkpoint::check_bounds(&spec, 0).map_err(LearnError::Config)?;
     let (labels, classes, cuts) = dataset_labels(&cfg.data)?;
-    let data = dataset::load(&cfg.data, &spec, cfg.seed)?;
+    let data = dataset::load(&cfg.data, &spec, cfg.seed, None)?;
     let (train, val) = match cfg.split {
         PlaceSplit::Session => (data.train.clone(), data.val.clone()),
         PlaceSplit::Random => {

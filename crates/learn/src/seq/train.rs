@@ -477,7 +477,12 @@ pub fn train_sequence(cfg: &SeqConfig, progress: &mut dyn FnMut(&SeqEvent)) -> R
     let t0 = Instant::now();
     let base = Localizer::load(&cfg.model)?;
     let base_meta = base.meta().clone();
-    let data = dataset::load(&cfg.data, base.view_spec(), base_meta.config.seed)?;
+    let data = dataset::load(
+        &cfg.data,
+        base.view_spec(),
+        base_meta.config.seed,
+        base_meta.config.blocks,
+    )?;
     check_camera(&data, &base_meta.coding, &cfg.data)?;
     let cuts_path = cfg.data.join(data::native::CUTS_CSV);
     let cuts = if cuts_path.is_file() {

@@ -1,0 +1,22 @@
+//! Errors of the map crate: each names the file it is about.
+
+use std::path::PathBuf;
+
+/// What went wrong, and with which file.
+#[derive(Debug, thiserror::Error)]
+pub enum MapError {
+    /// An image could not be read or decoded.
+    #[error("{path}: {msg}")]
+    Image {
+        /// The image file.
+        path: PathBuf,
+        /// What the decoder or the view said.
+        msg: String,
+    },
+    /// Input that cannot be used (an empty map, images of different sizes).
+    #[error("{0}")]
+    Input(String),
+}
+
+/// Result of this crate.
+pub type Result<T> = std::result::Result<T, MapError>;
