@@ -182,7 +182,9 @@ impl PosedDataset {
 /// not opened), false for anything else, e.g. a folder of plain images or a video.
 pub fn is_dataset(path: &Path) -> bool {
     if path.is_dir()
-        && (path.join("rgb.txt").is_file() || path.join(cambridge_list(SplitName::Train)).is_file())
+        && (path.join(native::POSES_CSV).is_file()
+            || path.join("rgb.txt").is_file()
+            || path.join(cambridge_list(SplitName::Train)).is_file())
     {
         return true;
     }
@@ -201,7 +203,10 @@ pub fn is_dataset(path: &Path) -> bool {
 /// do not match the colour images, an empty collection.
 pub fn open(path: &Path) -> Result<PosedDataset> {
     let meta = std::fs::metadata(path).map_err(|e| DataError::io(path, e))?;
-    let ds = if meta.is_dir() && path.join("rgb.txt").is_file() {
+    let native = meta.is_dir() && path.join(native::POSES_CSV).is_file();
+    let ds = if native {
+        open_native(path)?
+    } else if meta.is_dir() && path.join("rgb.txt").is_file() {
         open_tum(path)?
     } else if meta.is_dir() && path.join(cambridge_list(SplitName::Train)).is_file() {
         open_cambridge_scene(path)?

@@ -46,8 +46,8 @@ pub struct LocalizeArgs {
     /// Checkpoint folder written by `indoorloc train`.
     #[arg(long, value_name = "MODEL", required_unless_present = "retrieve")]
     model: Option<PathBuf>,
-    /// No network: answer each frame with the pose of the most similar training frame of this
-    /// posed dataset (its training part under --blocks or its own split; a thumbnail
+    /// No network: answer each frame with the pose of the most similar frame of this posed
+    /// dataset outside its test part (training and validation under --blocks or its own split; a thumbnail
     /// descriptor, see `map::retrieval`). `sigma_pos_m` / `sigma_rot_deg` are the spread of the
     /// five most similar frames.
     #[arg(long, value_name = "DATASET", conflicts_with = "model")]
@@ -140,9 +140,15 @@ fn load_models(
 fn retrieval_index(path: &Path, blocks: Option<BlockSplit>) -> Result<RetrievalIndex> {
     let ds = posed::open(path)?;
     let plan = blocks.map_or(SplitPlan::Auto, SplitPlan::Blocks);
+    // Retrieval chooses nothing on validation frames, so they are mapped too (as the peer
+    // `sift_pnp.py` maps every frame outside the test blocks).
+    let parts = ds.parts(plan);
     let frames: Vec<(PathBuf, Keyframe)> = ds
-        .split(plan, SplitName::Train)
-        .into_iter()
+        .images
+        .iter()
+        .zip(parts)
+        .filter(|(_, p)| matches!(p, Some(SplitName::Train | SplitName::Val)))
+        .map(|(img, _)| img)
         .map(|img| {
             let key = Keyframe {
                 name: format!("{}/{}", img.frame.seq, img.frame.name),
