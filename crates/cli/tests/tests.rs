@@ -7,6 +7,7 @@ mod learn_cli;
 mod markers_cli;
 mod metrics_reference;
 mod preprocess_cli;
+mod real_data_cli;
 mod scenecut_cli;
 mod serve_cli;
 mod study_cli;

@@ -6,7 +6,8 @@
 
 use crate::error::{Result, TrackError};
 use data::frames::{self, Frame, FrameSource};
-use data::native::{NativeDataset, SplitName};
+use data::native::SplitName;
+use data::posed::{self, PosedDataset, SplitPlan};
 use geom::Pose;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -41,8 +42,9 @@ pub const DEFAULT_FPS: f64 = 10.0;
 /// Opens `spec`:
 /// - `-` or `stdin:WxH[:rgb|gray]`: raw 8-bit frames on stdin (`-` needs `raw_size`);
 /// - `/dev/video*`: a camera through FFmpeg's v4l2 input;
-/// - a native dataset folder (has `dataset.toml`): its `split` recordings (all when `None`),
-///   with ground truth;
+/// - a posed dataset in any layout `data::posed` opens (native, 7-Scenes, TUM, COLMAP,
+///   Cambridge, NeRF): its `split` frames (all when `None`; the dataset's own split, else
+///   blocks of consecutive frames), with ground truth;
 /// - an image folder, an image or a video file.
 ///
 /// `fps` overrides the frame rate used to time frames that carry no timestamp.
@@ -62,7 +64,7 @@ pub fn open(spec: &str, split: Option<SplitName>, fps: Option<f64>) -> Result<Bo
     if spec.starts_with("/dev/video") {
         return open_device(path, fps);
     }
-    if path.join(data::native::DATASET_TOML).is_file() {
+    if posed::is_dataset(path) {
         return Ok(Box::new(DatasetFrames::open(path, split, fps)?));
     }
     let inner = frames::open(path)?;
@@ -258,9 +260,9 @@ impl Source for RawFrames {
     }
 }
 
-/// The frames of one split of a native dataset, recording after recording, with their poses.
+/// The frames of one split of a posed dataset, recording after recording, with their poses.
 pub struct DatasetFrames {
-    ds: NativeDataset,
+    ds: PosedDataset,
     index: Vec<usize>,
     next: usize,
     fps: f64,
@@ -270,11 +272,11 @@ pub struct DatasetFrames {
 impl DatasetFrames {
     /// The `split` frames of the dataset at `root` (every frame for `None`).
     pub fn open(root: &Path, split: Option<SplitName>, fps: Option<f64>) -> Result<DatasetFrames> {
-        let ds = NativeDataset::open(root)?;
-        let index = match split {
-            Some(s) => ds.split_frames(s),
-            None => (0..ds.trajectory.frames.len()).collect(),
-        };
+        let ds = posed::open(root)?;
+        let parts = ds.parts(SplitPlan::Auto);
+        let index: Vec<usize> = (0..ds.images.len())
+            .filter(|&i| split.is_none() || parts[i] == split)
+            .collect();
         if index.is_empty() {
             return Err(TrackError::source(
                 root.display().to_string(),
@@ -308,11 +310,8 @@ impl DatasetFrames {
 }
 
 /// The frame rate of a dataset's recording from its timestamps.
-fn recorded_fps(ds: &NativeDataset, index: &[usize]) -> Option<f64> {
-    let times: Vec<f64> = index
-        .iter()
-        .filter_map(|&i| ds.trajectory.frames[i].t)
-        .collect();
+fn recorded_fps(ds: &PosedDataset, index: &[usize]) -> Option<f64> {
+    let times: Vec<f64> = index.iter().filter_map(|&i| ds.images[i].frame.t).collect();
     let steps: Vec<f64> = times
         .windows(2)
         .map(|w| w[1] - w[0])
@@ -329,13 +328,12 @@ impl Source for DatasetFrames {
         let n = self.next;
         let &i = self.index.get(n)?;
         self.next += 1;
-        let number = self.ds.frame_number(i).unwrap_or(i as u64);
-        let path = self.ds.frame_path(number);
-        let image = match frames::decode_image(&path) {
+        let posed = &self.ds.images[i];
+        let image = match frames::decode_image(&posed.image) {
             Ok(img) => img.to_rgb8(),
             Err(e) => return Some(Err(e.into())),
         };
-        let pf = &self.ds.trajectory.frames[i];
+        let pf = &posed.frame;
         Some(Ok(SourceFrame {
             frame: Frame {
                 index: n as u64,

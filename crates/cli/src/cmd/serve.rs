@@ -9,7 +9,7 @@ use crate::cmd::demo::{self, scene};
 use crate::cmd::localize::Split;
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use data::native::{NativeDataset, SplitName};
+use data::native::SplitName;
 use serve::{FloorMap, Hub, ServerConfig};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -335,24 +335,24 @@ fn demo_map(plan: &scene::ScenePlan, data: &Path) -> Result<FloorMap> {
     Ok(map)
 }
 
-/// For a native dataset source, its frames' path (the ground truth) as the map; else an empty
-/// map (the dashboard then frames the trail itself).
+/// For a posed dataset source (any layout `data::posed` opens), its frames' path (the ground
+/// truth) as the map; else an empty map (the dashboard then frames the trail itself).
 fn dataset_map(source: &Path, split: Option<SplitName>) -> Result<FloorMap> {
-    if !source.join(data::native::DATASET_TOML).is_file() {
+    if !data::posed::is_dataset(source) {
         return Ok(FloorMap::default());
     }
-    let ds = NativeDataset::open(source)?;
-    let index = match split {
-        Some(s) => ds.split_frames(s),
-        None => (0..ds.trajectory.frames.len()).collect(),
-    };
+    let ds = data::posed::open(source)?;
+    let parts = ds.parts(data::posed::SplitPlan::Auto);
     Ok(FloorMap {
         title: source.display().to_string(),
         rects: Vec::new(),
-        path: index
+        path: ds
+            .images
             .iter()
-            .map(|&i| {
-                let p = ds.trajectory.frames[i].pose.position();
+            .zip(parts)
+            .filter(|(_, p)| split.is_none() || *p == split)
+            .map(|(img, _)| {
+                let p = img.frame.pose.position();
                 [p[0], p[1]]
             })
             .collect(),
