@@ -390,4 +390,25 @@ mod tests {
         let err = src.next_frame().and_then(|r| r.err()).expect("error");
         assert!(err.to_string().contains("inside frame 2"), "{err}");
     }
+
+    #[test]
+    fn a_7scenes_scene_streams_its_test_split_with_ground_truth() {
+        let scene = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../../shared/data/7scenes_stairs_sample/7scenes_layout");
+        if !scene.is_dir() {
+            return;
+        }
+        let spec = scene.to_str().expect("path");
+        let mut src = open(spec, Some(SplitName::Test), Some(5.0)).expect("opens");
+        let mut names = Vec::new();
+        while let Some(f) = src.next_frame() {
+            let f = f.expect("frame");
+            assert!(f.truth.is_some());
+            assert_eq!(f.frame.image.dimensions(), (640, 480));
+            names.push(f.frame.name);
+        }
+        // TestSplit.txt lists sequences 1 and 4, three frames each.
+        assert_eq!(names.len(), 6);
+        assert_eq!(names[0], "frame-000000");
+    }
 }
