@@ -44,6 +44,7 @@ pub mod loss;
 pub mod net;
 pub mod place;
 pub mod planes;
+pub mod pretrained;
 pub mod progress;
 pub mod seq;
 pub mod train;

@@ -215,6 +215,21 @@ impl TrainConfig {
         }
     }
 
+    /// The recipe for real photos (640x480 colour frames of a building): the frozen ImageNet
+    /// MobileNetV2 ([`Arch::Mobilenetv2`], 320x240 view) and its head trained for 150 epochs,
+    /// the epoch kept by the validation blocks, when its weights are in the cache
+    /// ([`crate::pretrained`]); otherwise the small network from scratch with the defaults of
+    /// [`TrainConfig::new`]. Measured in ARCHITECTURE.md, "Real data".
+    pub fn for_real_photos(data: impl Into<PathBuf>, out: impl Into<PathBuf>) -> TrainConfig {
+        let mut cfg = TrainConfig::new(data, out);
+        if crate::pretrained::locate(&crate::pretrained::MOBILENET_V2).is_ok() {
+            cfg.arch = Arch::Mobilenetv2;
+            cfg.epochs = 150;
+            cfg.patience = None;
+        }
+        cfg
+    }
+
     fn validate(&self) -> Result<()> {
         let bad = |m: String| Err(LearnError::Config(m));
         if self.epochs == 0 {
@@ -240,6 +255,13 @@ impl TrainConfig {
         }
         if !(0.0..1.0).contains(&self.dropout) {
             return bad(format!("dropout {} must be in [0, 1)", self.dropout));
+        }
+        if self.arch.pretrained() && (self.augment || self.shape_bias || self.planes || self.split)
+        {
+            return bad(format!(
+                "{} trains on its frozen layers' maps, computed once per frame: it takes no augmentation, shape bias, plane branch or split network",
+                self.arch
+            ));
         }
         if self.aleatoric && self.learned_weighting {
             return bad(
@@ -418,7 +440,10 @@ fn fresh(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device) 
         split: cfg.split,
         planes: cfg.planes,
     };
-    let net = net_cfg.init(device, cfg.seed)?;
+    let mut net = net_cfg.init(device, cfg.seed)?;
+    if let Some(weights) = crate::pretrained::weights_for(cfg.arch) {
+        net = net.load_pretrained(&crate::pretrained::locate(&weights)?, device)?;
+    }
     let meta = ModelMeta {
         format: FORMAT,
         net: net_cfg,
@@ -535,6 +560,7 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
     let t0 = Instant::now();
     let default_view = match (&cfg.view, cfg.task) {
         (Some(_), _) => "",
+        (None, _) if cfg.arch.pretrained() => PRETRAINED_VIEW,
         (None, Some(task)) => task.default_view(),
         (None, None) => Task::for_dof(dataset::dof(&cfg.data)?).default_view(),
     };
@@ -581,6 +607,16 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
     if meta.stopped_early {
         return Ok(TrainSummary::of(&meta, &cfg.out));
     }
+    // A frozen backbone's maps are computed once; training and validation read them instead
+    // of the views (the views stay for the calibration at the end).
+    let cached = frozen_maps(&net, &data)?;
+    if cached.is_some() {
+        data.train.inputs = Vec::new();
+    }
+    let (train_set, val_set) = match &cached {
+        Some((train, val)) => (train, val),
+        None => (&data.train, &data.val),
+    };
     let coding = meta.coding.clone();
     let targets: Vec<Vec<f32>> = data.train.poses.iter().map(|p| coding.target(p)).collect();
     let batch_size = cfg.batch_size.min(data.train.len());
@@ -589,7 +625,7 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
         steps = steps.min(cap);
     }
     let total_steps = steps * cfg.epochs;
-    let [c, h, w] = [data.train.channels, data.train.height, data.train.width];
+    let [c, h, w] = [train_set.channels, train_set.height, train_set.width];
     let outputs = targets[0].len();
     let plain = Device::flex();
     while meta.epoch < cfg.epochs {
@@ -608,7 +644,7 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
         });
         std::thread::scope(|scope| -> Result<()> {
             let source = loader::Source {
-                samples: &data.train,
+                samples: train_set,
                 targets: &targets,
                 planes: planes.as_ref().map(|p| &p.0),
             };
@@ -652,7 +688,7 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
             Ok(())
         })?;
         let valid = net.valid();
-        let (med_pos, med_rot, mean_pos) = evaluate(&valid, &coding, &data.val, &plain)?;
+        let (med_pos, med_rot, mean_pos) = evaluate(&valid, &coding, val_set, &plain)?;
         let val_plane_accuracy = match &planes {
             Some((_, val_targets)) => Some(plane_accuracy(&valid, &data.val, val_targets, &plain)?),
             None => None,
@@ -693,6 +729,54 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
         meta.write(&cfg.out)?;
     }
     Ok(TrainSummary::of(&meta, &cfg.out))
+}
+
+/// The view a pretrained backbone gets by default: 320x240 RGB with ImageNet's statistics
+/// (the half-size 640x480 frame; measured in ARCHITECTURE.md, "Real data").
+pub const PRETRAINED_VIEW: &str = "rgb320";
+
+/// The frozen layers' maps of the training and validation views (`None` without frozen
+/// layers), from the folded network, a chunk at a time.
+fn frozen_maps(net: &PoseNet, data: &TrainData) -> Result<Option<(Samples, Samples)>> {
+    let plain = Device::flex();
+    let frozen = net.valid().fold_batchnorm();
+    let maps = |samples: &Samples| -> Result<Option<Samples>> {
+        let n = samples.view_len();
+        let mut inputs = Vec::new();
+        let mut dims = [0; 3];
+        for start in (0..samples.len()).step_by(infer::CHUNK) {
+            let end = (start + infer::CHUNK).min(samples.len());
+            let x = Tensor::<4>::from_data(
+                TensorData::new(
+                    samples.inputs[start * n..end * n].to_vec(),
+                    [end - start, samples.channels, samples.height, samples.width],
+                ),
+                &plain,
+            );
+            let Some(map) = frozen.frozen_maps(x) else {
+                return Ok(None);
+            };
+            let [_, c, h, w] = map.dims();
+            dims = [c, h, w];
+            inputs.extend(
+                map.into_data()
+                    .try_to_vec::<f32>()
+                    .map_err(|e| LearnError::Input(format!("{e:?}")))?,
+            );
+        }
+        Ok(Some(Samples {
+            channels: dims[0],
+            height: dims[1],
+            width: dims[2],
+            inputs,
+            poses: samples.poses.clone(),
+            names: samples.names.clone(),
+        }))
+    };
+    Ok(match (maps(&data.train)?, maps(&data.val)?) {
+        (Some(train), Some(val)) => Some((train, val)),
+        _ => None,
+    })
 }
 
 /// Weight of the plane loss beside the pose loss (whose position part is in metres).

@@ -108,7 +108,7 @@ pub struct ViewSpec {
 
 /// Names accepted by [`ViewSpec::preset`].
 pub const PRESET_NAMES: &[&str] = &[
-    "gray160", "rgb256", "rgb224", "place240", "gradmag", "edges",
+    "gray160", "rgb256", "rgb224", "rgb320", "place240", "gradmag", "edges",
 ];
 
 impl ViewSpec {
@@ -130,6 +130,9 @@ impl ViewSpec {
             // Backbones pretrained at 224: the centre of the rgb256 view (training swaps in
             // random-crop=224x224 for augmentation).
             "rgb224" => "resize=256x256,center-crop=224x224,norm=pm1",
+            // Real 640x480 photos on an ImageNet-pretrained backbone (MobileNetV2): the frame at
+            // half size, aspect kept, ImageNet statistics.
+            "rgb320" => "resize=320x240,norm=imagenet",
             // Place recognition / classification on ImageNet-pretrained backbones, which expect
             // ImageNet statistics.
             "place240" => "resize=240x240,norm=imagenet",

@@ -37,7 +37,22 @@ impl ConvBn {
     /// `cin -> cout`, kernel `k`, stride `s`, padding `p`. Weights are Kaiming-normal with
     /// fan-out and ReLU gain, torchvision's initialisation.
     pub fn new(cin: usize, cout: usize, k: usize, s: usize, p: usize, device: &Device) -> Self {
+        Self::grouped(cin, cout, k, s, p, 1, device)
+    }
+
+    /// [`ConvBn::new`] with `groups` groups (`groups = cin = cout`: a depthwise convolution).
+    /// Grouped layers run on burn's convolution; the kernels take one group only.
+    pub fn grouped(
+        cin: usize,
+        cout: usize,
+        k: usize,
+        s: usize,
+        p: usize,
+        groups: usize,
+        device: &Device,
+    ) -> Self {
         let conv = Conv2dConfig::new([cin, cout], [k, k])
+            .with_groups(groups)
             .with_stride([s, s])
             .with_padding(PaddingConfig2d::Explicit(p, p, p, p))
             .with_bias(false)
@@ -52,6 +67,24 @@ impl ConvBn {
             bn,
             folded: false,
         }
+    }
+
+    /// The layer with pretrained values: the convolution's weight `[cout, cin / groups, k, k]`
+    /// and the BatchNorm's scale, shift, running mean and running variance `[cout]` each (in
+    /// PyTorch's order). The shapes must be the layer's own.
+    pub fn with_values(mut self, weight: Tensor<4>, bn: [Tensor<1>; 4]) -> Self {
+        let [gamma, beta, mean, var] = bn;
+        self.conv.weight = Param::from_tensor(weight);
+        self.bn.gamma = Param::from_tensor(gamma);
+        self.bn.beta = Param::from_tensor(beta);
+        self.bn.running_mean = burn::module::RunningState::new(mean);
+        self.bn.running_var = burn::module::RunningState::new(var);
+        self
+    }
+
+    /// Shape of the convolution's weight.
+    pub fn weight_shape(&self) -> [usize; 4] {
+        self.conv.weight.dims()
     }
 
     /// The same layer with the BatchNorm's running statistics folded into the convolution's

@@ -11,6 +11,7 @@
 mod conv;
 mod inception;
 pub mod mc;
+mod mobilenet;
 mod planes;
 mod resnet;
 mod small;
@@ -32,6 +33,9 @@ use crate::head::Task;
 use crate::{LearnError, Result};
 
 pub use inception::{INCEPTION_FEATURES, INCEPTION_MID_CHANNELS, InceptionNet};
+pub use mobilenet::{
+    MOBILENET_CUT_CHANNELS, MOBILENET_FEATURES, MOBILENET_GRID, MOBILENET_MID_CHANNELS, MobileNetV2,
+};
 pub use planes::{PLANE_FEATURES, PlaneBranch};
 pub use resnet::{RESNET_FEATURES, RESNET_MID_CHANNELS, RESNET18_BLOCKS, RESNET34_BLOCKS, ResNet};
 pub use small::{SMALL_CHANNELS, SMALL_MID_CHANNELS, SmallNet};
@@ -48,11 +52,26 @@ pub enum Arch {
     Resnet34,
     /// GoogLeNet with BatchNorm, cut at its first auxiliary classifier (after inception 4a).
     Googlenet,
+    /// torchvision's MobileNetV2 with its ImageNet weights, frozen, and a small trainable
+    /// reduction that keeps the image layout (RGB only; see `net/mobilenet.rs`).
+    Mobilenetv2,
 }
 
 impl Arch {
     /// Every backbone.
-    pub const ALL: [Arch; 4] = [Arch::Small, Arch::Resnet18, Arch::Resnet34, Arch::Googlenet];
+    pub const ALL: [Arch; 5] = [
+        Arch::Small,
+        Arch::Resnet18,
+        Arch::Resnet34,
+        Arch::Googlenet,
+        Arch::Mobilenetv2,
+    ];
+
+    /// Whether the backbone starts from pretrained weights (which must be fetched, see
+    /// [`crate::pretrained`]) and keeps them frozen.
+    pub fn pretrained(self) -> bool {
+        self == Arch::Mobilenetv2
+    }
 
     /// Width of the pooled feature vector.
     pub fn features(self) -> usize {
@@ -60,6 +79,7 @@ impl Arch {
             Arch::Small => SMALL_CHANNELS[SMALL_CHANNELS.len() - 1],
             Arch::Resnet18 | Arch::Resnet34 => RESNET_FEATURES,
             Arch::Googlenet => INCEPTION_FEATURES,
+            Arch::Mobilenetv2 => MOBILENET_FEATURES,
         }
     }
 
@@ -69,6 +89,7 @@ impl Arch {
             Arch::Small => SMALL_MID_CHANNELS,
             Arch::Resnet18 | Arch::Resnet34 => RESNET_MID_CHANNELS,
             Arch::Googlenet => INCEPTION_MID_CHANNELS,
+            Arch::Mobilenetv2 => MOBILENET_MID_CHANNELS,
         }
     }
 
@@ -79,6 +100,7 @@ impl Arch {
             Arch::Resnet18 => "resnet18",
             Arch::Resnet34 => "resnet34",
             Arch::Googlenet => "googlenet",
+            Arch::Mobilenetv2 => "mobilenetv2",
         }
     }
 }
@@ -182,6 +204,12 @@ impl NetConfig {
             return Err(LearnError::Config(
                 "a network needs at least one output".into(),
             ));
+        }
+        if self.arch.pretrained() && self.channels != 3 {
+            return Err(LearnError::Config(format!(
+                "{} was pretrained on colour images; it needs an RGB view, not {} channel(s)",
+                self.arch, self.channels
+            )));
         }
         Ok(seeded_init(device, seed, || self.build(device)))
     }
@@ -293,6 +321,8 @@ pub enum Backbone {
     ResNet(ResNet),
     /// The GoogLeNet-style network.
     Inception(InceptionNet),
+    /// MobileNetV2 (pretrained, frozen) and its trainable reduction.
+    MobileNet(MobileNetV2),
 }
 
 impl Backbone {
@@ -303,6 +333,7 @@ impl Backbone {
             Arch::Resnet18 => Backbone::ResNet(ResNet::new(channels, RESNET18_BLOCKS, device)),
             Arch::Resnet34 => Backbone::ResNet(ResNet::new(channels, RESNET34_BLOCKS, device)),
             Arch::Googlenet => Backbone::Inception(InceptionNet::new(channels, device)),
+            Arch::Mobilenetv2 => Backbone::MobileNet(MobileNetV2::new(device)),
         }
     }
 
@@ -311,6 +342,7 @@ impl Backbone {
             Backbone::Small(n) => Backbone::Small(n.fold()),
             Backbone::ResNet(n) => Backbone::ResNet(n.fold()),
             Backbone::Inception(n) => Backbone::Inception(n.fold()),
+            Backbone::MobileNet(n) => Backbone::MobileNet(n.fold()),
         }
     }
 
@@ -319,6 +351,7 @@ impl Backbone {
             Backbone::Small(n) => n.forward(x),
             Backbone::ResNet(n) => n.forward(x),
             Backbone::Inception(n) => n.forward(x),
+            Backbone::MobileNet(n) => n.forward(x),
         }
     }
 
@@ -328,6 +361,7 @@ impl Backbone {
             Backbone::Small(n) => n.forward_tail(mid),
             Backbone::ResNet(n) => n.forward_tail(mid),
             Backbone::Inception(n) => n.forward_tail(mid),
+            Backbone::MobileNet(n) => n.forward_tail(mid),
         }
     }
 
@@ -337,6 +371,7 @@ impl Backbone {
             Backbone::Small(n) => n.forward_mid(x),
             Backbone::ResNet(n) => n.forward_mid(x),
             Backbone::Inception(n) => n.forward_mid(x),
+            Backbone::MobileNet(n) => n.forward_mid(x),
         }
     }
 }
@@ -639,6 +674,34 @@ impl PoseNet {
                 ..b
             }),
             ..self
+        }
+    }
+
+    /// The network with the pretrained backbone's weights read from `path` (see
+    /// [`MobileNetV2::load_torchvision`]); other backbones have none and are refused.
+    pub fn load_pretrained(self, path: &std::path::Path, device: &Device) -> Result<Self> {
+        if self.rotation.is_some() || self.planes.is_some() {
+            return Err(LearnError::Config(
+                "a pretrained backbone takes neither a split network nor a plane branch".into(),
+            ));
+        }
+        match self.backbone {
+            Backbone::MobileNet(n) => Ok(PoseNet {
+                backbone: Backbone::MobileNet(n.load_torchvision(path, device)?),
+                ..self
+            }),
+            _ => Err(LearnError::Config(
+                "only a pretrained backbone loads pretrained weights".into(),
+            )),
+        }
+    }
+
+    /// The frozen pretrained layers' maps of a batch of images (see `net/mobilenet.rs`), which
+    /// [`PoseNet::forward`] also takes in place of the images; `None` when nothing is frozen.
+    pub fn frozen_maps(&self, x: Tensor<4>) -> Option<Tensor<4>> {
+        match &self.backbone {
+            Backbone::MobileNet(n) => Some(n.frozen(x)),
+            _ => None,
         }
     }
 

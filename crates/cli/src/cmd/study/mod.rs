@@ -4,6 +4,7 @@
 pub(crate) mod cuts;
 mod markers_distance;
 mod place_split;
+mod real;
 mod render_types;
 mod robustness;
 mod sequence;
@@ -44,6 +45,9 @@ enum Study {
     /// against a split by recording session, with held-out walks under another appearance,
     /// per-class precision / recall and confusion matrices.
     PlaceSplit(place_split::PlaceSplitArgs),
+    /// A real posed dataset end to end: mean training pose, image retrieval, the network
+    /// (real-photo recipe) and the network + sequence model on the held-out frames.
+    Real(real::RealArgs),
     /// Marker pose error against distance and viewing angle, for two camera resolutions, on
     /// a marker rendered on a wall.
     MarkersDistance(markers_distance::MarkersDistanceArgs),
@@ -59,6 +63,7 @@ pub fn run(args: &StudyArgs) -> Result<()> {
         Study::Robustness(a) => robustness::run(a),
         Study::PlaceSplit(a) => place_split::run(a),
         Study::MarkersDistance(a) => markers_distance::run(a),
+        Study::Real(a) => real::run(a),
     }
 }
 
