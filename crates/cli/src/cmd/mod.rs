@@ -14,3 +14,4 @@ pub mod serve;
 pub mod study;
 pub mod synth;
 pub mod train;
+pub mod weights;

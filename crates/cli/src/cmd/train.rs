@@ -65,17 +65,21 @@ pub struct TrainArgs {
     /// directions apart more often).
     #[arg(long, default_value_t = 2, value_name = "GRID")]
     place_grid: usize,
-    /// Backbone: small (fast), resnet18, resnet34 or googlenet (GoogLeNet + BatchNorm up to its
-    /// first auxiliary classifier, as ceiling-camera work uses).
-    #[arg(long, default_value = "small")]
-    arch: Arch,
+    /// Backbone: small (fast), resnet18, resnet34, googlenet (GoogLeNet + BatchNorm up to its
+    /// first auxiliary classifier, as ceiling-camera work uses) or mobilenetv2 (ImageNet
+    /// weights, frozen; fetch them once with `indoorloc weights fetch`). Default: the
+    /// real-photo recipe (mobilenetv2, 150 epochs) for a 6-DoF pose network on real photos (a
+    /// 7-Scenes, TUM, COLMAP, Cambridge or NeRF dataset) when the weights are there, else small.
+    #[arg(long)]
+    arch: Option<Arch>,
     /// Input view: a preset (gray160, rgb256, ...) or spec text; default gray160 for pose3,
     /// rgb256 for pose6.
     #[arg(long)]
     view: Option<String>,
-    /// Epochs to reach (a resumed run continues up to this number).
-    #[arg(long, default_value_t = 30)]
-    epochs: usize,
+    /// Epochs to reach (a resumed run continues up to this number); default 30, 150 with the
+    /// real-photo recipe.
+    #[arg(long)]
+    epochs: Option<usize>,
     /// Images per step.
     #[arg(long, default_value_t = 32)]
     batch: usize,
@@ -131,9 +135,10 @@ pub struct TrainArgs {
     /// planes are found in the depth by RANSAC).
     #[arg(long)]
     planes: bool,
-    /// Stop after this many epochs without a better validation median position error.
-    #[arg(long, default_value_t = 10)]
-    patience: usize,
+    /// Stop after this many epochs without a better validation median position error; default
+    /// 10, none with the real-photo recipe (the best epoch is still the one kept).
+    #[arg(long)]
+    patience: Option<usize>,
     /// Seed of initialisation, shuffling, augmentation and dropout.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -173,11 +178,21 @@ pub struct TrainArgs {
 impl TrainArgs {
     /// The library configuration these arguments describe.
     pub fn config(&self) -> TrainConfig {
-        let mut cfg = TrainConfig::new(&self.data, &self.out);
-        cfg.task = self.task.and_then(TaskArg::pose);
-        cfg.arch = self.arch;
+        let task = self.task.and_then(TaskArg::pose);
+        let real = self.arch.is_none() && task != Some(Task::Pose3) && is_real_photos(&self.data);
+        let mut cfg = if real {
+            TrainConfig::for_real_photos(&self.data, &self.out)
+        } else {
+            TrainConfig::new(&self.data, &self.out)
+        };
+        cfg.task = task;
+        if let Some(arch) = self.arch {
+            cfg.arch = arch;
+        }
         cfg.view = self.view.clone();
-        cfg.epochs = self.epochs;
+        if let Some(epochs) = self.epochs {
+            cfg.epochs = epochs;
+        }
         cfg.batch_size = self.batch;
         cfg.max_steps_per_epoch = self.steps_per_epoch;
         cfg.lr = self.lr;
@@ -200,7 +215,9 @@ impl TrainArgs {
         cfg.shape_bias = self.shape_bias;
         cfg.planes = self.planes;
         cfg.blocks = self.blocks;
-        cfg.patience = Some(self.patience);
+        if self.patience.is_some() {
+            cfg.patience = self.patience;
+        }
         cfg.seed = self.seed;
         cfg.resume = self.resume;
         cfg.force = self.force;
@@ -216,12 +233,25 @@ impl TrainArgs {
         cfg.epochs = self.seq_epochs;
         cfg.beta = Some(self.seq_beta.unwrap_or(self.beta));
         cfg.dropout = Some(self.dropout);
-        cfg.patience = Some(self.patience);
+        cfg.patience = Some(self.patience.unwrap_or(DEFAULT_PATIENCE));
         cfg.seed = self.seed;
         cfg.resume = self.resume;
         cfg.force = self.force;
         Some(cfg)
     }
+}
+
+/// Epochs of a network outside the real-photo recipe.
+const DEFAULT_EPOCHS: usize = 30;
+
+/// Patience outside the real-photo recipe.
+const DEFAULT_PATIENCE: usize = 10;
+
+/// Whether `path` is a dataset of real photos: a posed layout other than indoorloc's own
+/// (whose folders the renderer writes).
+fn is_real_photos(path: &std::path::Path) -> bool {
+    data::posed::is_dataset(path)
+        && data::posed::open(path).is_ok_and(|ds| ds.layout != data::posed::Layout::Native)
 }
 
 /// The `--json` document.
@@ -258,10 +288,14 @@ pub fn place_config(args: &TrainArgs) -> Result<PlaceConfig> {
         !args.planes,
         "--planes trains a pose network's plane branch; a place classifier takes --augment and --shape-bias"
     );
+    anyhow::ensure!(
+        !args.arch.is_some_and(Arch::pretrained),
+        "a place classifier trains its whole backbone; a frozen pretrained one is for pose networks"
+    );
     let mut cfg = PlaceConfig::new(&args.data, &args.out);
-    cfg.arch = args.arch;
+    cfg.arch = args.arch.unwrap_or(Arch::Small);
     cfg.view = args.view.clone();
-    cfg.epochs = args.epochs;
+    cfg.epochs = args.epochs.unwrap_or(DEFAULT_EPOCHS);
     cfg.batch_size = args.batch;
     cfg.lr = args.lr;
     cfg.weight_decay = args.weight_decay;
@@ -271,7 +305,7 @@ pub fn place_config(args: &TrainArgs) -> Result<PlaceConfig> {
     cfg.shape_bias = args.shape_bias;
     cfg.reframe = args.reframe;
     cfg.grid = args.place_grid;
-    cfg.patience = Some(args.patience);
+    cfg.patience = Some(args.patience.unwrap_or(DEFAULT_PATIENCE));
     cfg.seed = args.seed;
     cfg.resume = args.resume;
     cfg.force = args.force;

@@ -230,6 +230,10 @@ pub fn run(args: &RealArgs) -> Result<()> {
         methods: &methods,
         single: &single,
         test_images: &test_images,
+        test_names: &test_index
+            .iter()
+            .map(|&i| ds.images[i].frame.name.clone())
+            .collect::<Vec<_>>(),
         nearest: &nearest,
         mapped: &mapped,
     };
@@ -388,6 +392,8 @@ struct Evidence<'a> {
     methods: &'a [Method],
     single: &'a [Estimate],
     test_images: &'a [DynamicImage],
+    /// The test frames' names.
+    test_names: &'a [String],
     /// Each test frame's most similar mapped frame (index into `mapped`).
     nearest: &'a [usize],
     mapped: &'a [&'a PosedImage],
@@ -409,24 +415,39 @@ fn write_report(out: &StudyOutput, ev: &Evidence<'_>) -> Result<()> {
         out.train_frames, out.test_frames, out.split, out.network
     ));
     page.table(&table(&out.rows));
+    if let (Some(net), Some(ret)) = (
+        out.rows.iter().find(|r| r.method == "network"),
+        out.rows.iter().find(|r| r.method == "retrieval"),
+    ) && net.median_pos_m >= ret.median_pos_m
+    {
+        page.paragraph(
+            "Retrieval beats the network here. Short test blocks between training blocks are \
+             retrieval's best case: a training frame a few centimetres away looks almost the \
+             same. The network also trains without the validation blocks, which choose its \
+             epoch. Geometric refinement (keyframes, local features, PnP) is what closes this \
+             gap.",
+        );
+    }
     let errs: Vec<(Vec<f64>, Vec<f64>)> = ev
         .methods
         .iter()
         .map(|m| errors(&m.poses, ev.truth))
         .collect();
-    let series = |pick: fn(&(Vec<f64>, Vec<f64>)) -> &Vec<f64>| -> Vec<Series> {
+    let series = |rotation: bool| -> Vec<Series> {
         ev.methods
             .iter()
             .zip(&errs)
-            .map(|(m, e)| Series::new(m.name.clone(), pick(e).clone()))
+            .map(|(m, (pos, rot))| {
+                Series::new(m.name.clone(), if rotation { rot } else { pos }.clone())
+            })
             .collect()
     };
     page.figure(
-        &report::error_cdf("Error CDF", &series(|e| &e.0), &series(|e| &e.1)),
+        &report::error_cdf("Error CDF", &series(false), &series(true)),
         "Cumulative distribution of position and rotation errors on the test frames.",
     )?;
     page.figure(
-        &report::error_over_time("Errors along the test frames", &series(|e| &e.0), &[], None),
+        &report::error_over_time("Errors along the test frames", &series(false), &[], None),
         "Position error per test frame, in recording order (blocks follow each other).",
     )?;
     let xy = |p: &Pose| {
@@ -469,7 +490,7 @@ fn worst_sheet(ev: &Evidence<'_>) -> Result<Vec<u8>> {
     let mut tiles = Vec::new();
     for &i in order.iter().take(WORST) {
         tiles.push(report::Tile {
-            label: format!("test {i}: {:.2} m, {:.1}°", pos[i], rot[i]),
+            label: format!("{}: {:.2} m, {:.1}°", ev.test_names[i], pos[i], rot[i]),
             image: tile(&ev.test_images[i]),
         });
         let near = ev.mapped[ev.nearest[i]];
