@@ -129,6 +129,32 @@ impl Localizer {
         pack_views(views, self.meta.input, &self.meta.view)
     }
 
+    /// Global descriptors of views for image retrieval: the pretrained layers' map averaged
+    /// over the image and L2-normalised, one row per view; `None` for a network without
+    /// pretrained layers. ImageNet features find the same place from another viewpoint where
+    /// thumbnails do not (ARCHITECTURE.md, "Real data"). Run [`CHUNK`] views at a time.
+    pub fn descriptors(&self, views: &[View]) -> Result<Option<Vec<Vec<f32>>>> {
+        let [c, h, w] = self.meta.input;
+        let mut rows = Vec::with_capacity(views.len());
+        for part in views.chunks(CHUNK) {
+            let x = Tensor::<4>::from_data(
+                TensorData::new(self.pack(part)?, [part.len(), c, h, w]),
+                &self.device,
+            );
+            let Some(map) = self.net.frozen_maps(x) else {
+                return Ok(None);
+            };
+            let [b, f, _, _] = map.dims();
+            let pooled = map.mean_dim(3).mean_dim(2).reshape([b, f]);
+            for mut row in rows_of(pooled)? {
+                let norm = row.iter().map(|v| v * v).sum::<f32>().sqrt().max(1e-12);
+                row.iter_mut().for_each(|v| *v /= norm);
+                rows.push(row);
+            }
+        }
+        Ok(Some(rows))
+    }
+
     /// The checkpoint's description (task, view, metrics, ...).
     pub fn meta(&self) -> &ModelMeta {
         &self.meta

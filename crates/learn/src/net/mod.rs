@@ -866,32 +866,34 @@ mod tests {
     #[test]
     fn folded_batchnorm_gives_the_same_outputs() -> Result<()> {
         let train = Device::flex().autodiff();
-        let x = |device: &Device| {
-            let v: Vec<f32> = (0..2 * 24 * 32)
+        let x = |device: &Device, c: usize| {
+            let v: Vec<f32> = (0..2 * c * 24 * 32)
                 .map(|i| ((i * 37) % 101) as f32 / 50.0 - 1.0)
                 .collect();
-            Tensor::<4>::from_data(burn::tensor::TensorData::new(v, [2, 1, 24, 32]), device)
+            Tensor::<4>::from_data(burn::tensor::TensorData::new(v, [2, c, 24, 32]), device)
         };
         for arch in Arch::ALL {
+            // A pretrained backbone takes colour only.
+            let c = if arch.pretrained() { 3 } else { 1 };
             let net = NetConfig {
                 split: arch == Arch::Small,
-                ..config(arch, 1)
+                ..config(arch, c)
             }
             .init(&train, 1)?;
             // Training-mode passes move the running statistics away from (0, 1).
             for _ in 0..3 {
-                let _ = net.forward(x(&train) * 3.0 + 0.5);
+                let _ = net.forward(x(&train, c) * 3.0 + 0.5);
             }
             let plain = net.valid();
             let device = Device::flex();
-            let want = values(plain.forward(x(&device)))?;
-            let got = values(plain.fold_batchnorm().forward(x(&device)))?;
+            let want = values(plain.forward(x(&device, c)))?;
+            let got = values(plain.fold_batchnorm().forward(x(&device, c)))?;
             let fresh = NetConfig {
                 split: arch == Arch::Small,
-                ..config(arch, 1)
+                ..config(arch, c)
             }
             .init(&device, 1)?;
-            let fresh = values(fresh.forward(x(&device)))?;
+            let fresh = values(fresh.forward(x(&device, c)))?;
             assert_ne!(want, fresh, "{arch}: the running statistics moved");
             assert_eq!(want.len(), got.len());
             for (a, b) in want.iter().zip(&got) {

@@ -2,7 +2,8 @@
 //! simplest baselines on the same held-out frames.
 //!
 //! Rows: the mean training pose (what a network that learnt nothing answers), image retrieval
-//! (the pose of the most similar mapped frame, `map::retrieval`), the network trained with the
+//! (the pose of the most similar mapped frame, `map::retrieval`; and by the pretrained
+//! backbone's pooled features when the network has one), the network trained with the
 //! real-photo recipe ([`learn::TrainConfig::for_real_photos`]: a frozen ImageNet MobileNetV2
 //! when its weights are in the cache, else the small network from scratch), and that network
 //! with the CNN+LSTM sequence model over the held-out runs of consecutive frames. The split is
@@ -174,6 +175,9 @@ pub fn run(args: &RealArgs) -> Result<()> {
         .iter()
         .map(|img| loc.view(img))
         .collect::<learn::Result<Vec<_>>>()?;
+    if let Some(by_features) = feature_retrieval(&loc, &mapped, &views)? {
+        methods.push(by_features);
+    }
     let t = Instant::now();
     let single = loc.predict_batch(&views, args.mc)?;
     methods.push(Method {
@@ -317,6 +321,48 @@ fn retrieval(mapped: &[&PosedImage], test_images: &[DynamicImage]) -> Result<(Me
         },
         found.iter().map(|r| r.best.index).collect(),
     ))
+}
+
+/// Retrieval by the pretrained backbone's pooled features ([`Localizer::descriptors`]) from
+/// every training and validation frame; `None` when the network has no pretrained layers.
+fn feature_retrieval(
+    loc: &Localizer,
+    mapped: &[&PosedImage],
+    test_views: &[imgproc::view::View],
+) -> Result<Option<Method>> {
+    let t = Instant::now();
+    let mut keys: Vec<Vec<f32>> = Vec::with_capacity(mapped.len());
+    for part in mapped.chunks(64) {
+        let views = part
+            .par_iter()
+            .map(|img| -> Result<imgproc::view::View> {
+                Ok(loc.view(&data::frames::decode_image(&img.image)?)?)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        match loc.descriptors(&views)? {
+            Some(rows) => keys.extend(rows),
+            None => return Ok(None),
+        }
+    }
+    let train_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let queries = loc.descriptors(test_views)?.unwrap_or_default();
+    let poses = queries
+        .iter()
+        .map(|q| {
+            let score = |k: &Vec<f32>| k.iter().zip(q).map(|(a, b)| a * b).sum::<f32>();
+            let best = (0..keys.len())
+                .max_by(|&a, &b| score(&keys[a]).total_cmp(&score(&keys[b])))
+                .unwrap_or(0);
+            mapped[best].frame.pose
+        })
+        .collect();
+    Ok(Some(Method {
+        name: "retrieval-features".into(),
+        poses,
+        train_s,
+        ms_per_frame: 1e3 * t.elapsed().as_secs_f64() / test_views.len().max(1) as f64,
+    }))
 }
 
 /// Position and rotation errors of `poses` against `truth`.
