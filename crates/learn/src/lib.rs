@@ -7,7 +7,8 @@
 //! - [`Localizer::load`] then [`Localizer::predict`] / [`Localizer::predict_batch`]: poses of
 //!   images with Monte-Carlo-dropout uncertainty ([`Estimate`]).
 //! - [`net`]: the networks ([`Arch::Small`], [`Arch::Resnet18`], layer for layer as the PyTorch
-//!   peer `torch_apr.py`), [`loss`], [`head`] (what outputs mean), [`checkpoint`] (the folder
+//!   peer `torch_apr.py`; [`Arch::Mobilenetv2`] with torchvision's ImageNet weights, frozen,
+//!   from [`pretrained`]), [`loss`], [`head`] (what outputs mean), [`checkpoint`] (the folder
 //!   layout), [`dataset`] (views in memory), [`window`] (which runs of frames a sequence model
 //!   may see as one stretch of time), [`seq`] (the LSTM of a CNN+LSTM sequence model and its
 //!   live, resettable stream), [`planes`] (dominant-plane targets and loss of the auxiliary
