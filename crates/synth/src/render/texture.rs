@@ -1987,7 +1987,9 @@ mod tests {
         assert!(!t.texels.is_empty());
     }
 
+    /// Times for a person to read; speed goals are checked by `indoorloc bench render`.
     #[test]
+    #[ignore = "timing printout, checks nothing; run with --ignored"]
     fn texture_bake_times() {
         for (name, m) in all(5) {
             let mut best = f64::MAX;
@@ -2010,6 +2012,7 @@ mod tests {
     /// Writes a contact sheet of every pattern, two seeds each, to /tmp/textures.png: each cell
     /// shows the texture as seen on the wall (v up), repeating patterns 2 × 2 times.
     #[test]
+    #[ignore = "a picture for a person to look at, checks nothing; run with --ignored"]
     fn texture_contact_sheet() -> TestResult {
         let cell = 180u32;
         let pad = 6u32;
