@@ -149,6 +149,18 @@ impl PosedDataset {
         out
     }
 
+    /// The images a retrieval index or a map is built from: the training and validation parts
+    /// (retrieval chooses nothing on validation frames, so they are mapped too, as the peer
+    /// `sift_pnp.py` maps every frame outside the test blocks).
+    pub fn mapped(&self, plan: SplitPlan) -> Vec<&PosedImage> {
+        self.images
+            .iter()
+            .zip(self.parts(plan))
+            .filter(|(_, p)| matches!(p, Some(SplitName::Train | SplitName::Val)))
+            .map(|(img, _)| img)
+            .collect()
+    }
+
     /// The images of one part.
     pub fn split(&self, plan: SplitPlan, which: SplitName) -> Vec<&PosedImage> {
         self.images

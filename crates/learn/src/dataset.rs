@@ -66,6 +66,22 @@ impl Samples {
         &self.inputs[i * n..(i + 1) * n]
     }
 
+    /// The views of samples `range` as one batch `[len, C, H, W]` on `device`.
+    pub fn batch(
+        &self,
+        range: std::ops::Range<usize>,
+        device: &burn::tensor::Device,
+    ) -> burn::tensor::Tensor<4> {
+        let n = self.view_len();
+        burn::tensor::Tensor::from_data(
+            burn::tensor::TensorData::new(
+                self.inputs[range.start * n..range.end * n].to_vec(),
+                [range.len(), self.channels, self.height, self.width],
+            ),
+            device,
+        )
+    }
+
     /// The samples `indices` of `self` and then of `other` (indices past `self.len()` count
     /// on into `other`), e.g. to split the frames of two splits again.
     pub fn select(&self, other: &Samples, indices: &[usize]) -> Samples {

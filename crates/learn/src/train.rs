@@ -741,19 +741,11 @@ fn frozen_maps(net: &PoseNet, data: &TrainData) -> Result<Option<(Samples, Sampl
     let plain = Device::flex();
     let frozen = net.valid().fold_batchnorm();
     let maps = |samples: &Samples| -> Result<Option<Samples>> {
-        let n = samples.view_len();
         let mut inputs = Vec::new();
         let mut dims = [0; 3];
         for start in (0..samples.len()).step_by(infer::CHUNK) {
             let end = (start + infer::CHUNK).min(samples.len());
-            let x = Tensor::<4>::from_data(
-                TensorData::new(
-                    samples.inputs[start * n..end * n].to_vec(),
-                    [end - start, samples.channels, samples.height, samples.width],
-                ),
-                &plain,
-            );
-            let Some(map) = frozen.frozen_maps(x) else {
+            let Some(map) = frozen.frozen_maps(samples.batch(start..end, &plain)) else {
                 return Ok(None);
             };
             let [_, c, h, w] = map.dims();
@@ -808,17 +800,9 @@ fn plane_accuracy(
     let [gh, gw] = targets.grid;
     let cells = gh * gw;
     let (mut right, mut all) = (0.0, 0usize);
-    let n = samples.view_len();
     for start in (0..samples.len()).step_by(infer::CHUNK) {
         let end = (start + infer::CHUNK).min(samples.len());
-        let x = Tensor::<4>::from_data(
-            TensorData::new(
-                samples.inputs[start * n..end * n].to_vec(),
-                [end - start, samples.channels, samples.height, samples.width],
-            ),
-            device,
-        );
-        let Some(out) = net.plane_outputs(x) else {
+        let Some(out) = net.plane_outputs(samples.batch(start..end, device)) else {
             return Ok(0.0);
         };
         let logits = out

@@ -17,6 +17,7 @@
 //! thumbnails-as-descriptors, and the search is one dot product per mapped frame.
 
 use crate::{MapError, Result};
+use data::posed::PosedImage;
 use geom::Pose;
 use image::{DynamicImage, GrayImage};
 use rayon::prelude::*;
@@ -81,7 +82,49 @@ pub struct Hit {
     pub score: f32,
 }
 
+impl Keyframe {
+    /// The keyframe of a posed image: its `seq/name` and pose.
+    pub fn of(img: &PosedImage) -> Keyframe {
+        Keyframe {
+            name: format!("{}/{}", img.frame.seq, img.frame.name),
+            pose: img.frame.pose,
+        }
+    }
+}
+
 impl RetrievalIndex {
+    /// An index of posed images ([`RetrievalIndex::build`] on their colour files).
+    pub fn of_images(images: &[&PosedImage]) -> Result<Self> {
+        let frames: Vec<(PathBuf, Keyframe)> = images
+            .iter()
+            .map(|img| (img.image.clone(), Keyframe::of(img)))
+            .collect();
+        Self::build(&frames)
+    }
+
+    /// An index of keyframes with descriptors computed elsewhere (e.g. a network's features),
+    /// one per keyframe, all of the same width and unit length; searched as thumbnails are.
+    pub fn from_descriptors(keyframes: Vec<Keyframe>, descriptors: Vec<Vec<f32>>) -> Result<Self> {
+        let width = descriptors.first().map_or(0, Vec::len);
+        if keyframes.is_empty() || keyframes.len() != descriptors.len() || width == 0 {
+            return Err(MapError::Input(format!(
+                "{} keyframes and {} descriptors: an index needs one non-empty descriptor per keyframe",
+                keyframes.len(),
+                descriptors.len()
+            )));
+        }
+        if let Some(i) = descriptors.iter().position(|d| d.len() != width) {
+            return Err(MapError::Input(format!(
+                "descriptor {i} has {} values, the first has {width}",
+                descriptors[i].len()
+            )));
+        }
+        Ok(RetrievalIndex {
+            keyframes,
+            descriptors: descriptors.concat(),
+        })
+    }
+
     /// An index of posed image files (`(image, keyframe)`), described in parallel. Errors name
     /// the first image that cannot be read; an empty list is an error.
     pub fn build(frames: &[(PathBuf, Keyframe)]) -> Result<Self> {

@@ -11,7 +11,7 @@ use data::posed::{self, SplitPlan};
 use learn::place::{PlaceLocalizer, PlaceMeta, PlacePrediction};
 use learn::seq::{SeqLocalizer, SeqMeta, SeqTracker};
 use learn::{Estimate, Localizer};
-use map::retrieval::{Keyframe, RetrievalIndex};
+use map::retrieval::RetrievalIndex;
 use serde::Serialize;
 use std::collections::VecDeque;
 use std::io::Write;
@@ -140,31 +140,15 @@ fn load_models(
 fn retrieval_index(path: &Path, blocks: Option<BlockSplit>) -> Result<RetrievalIndex> {
     let ds = posed::open(path)?;
     let plan = blocks.map_or(SplitPlan::Auto, SplitPlan::Blocks);
-    // Retrieval chooses nothing on validation frames, so they are mapped too (as the peer
-    // `sift_pnp.py` maps every frame outside the test blocks).
-    let parts = ds.parts(plan);
-    let frames: Vec<(PathBuf, Keyframe)> = ds
-        .images
-        .iter()
-        .zip(parts)
-        .filter(|(_, p)| matches!(p, Some(SplitName::Train | SplitName::Val)))
-        .map(|(img, _)| img)
-        .map(|img| {
-            let key = Keyframe {
-                name: format!("{}/{}", img.frame.seq, img.frame.name),
-                pose: img.frame.pose,
-            };
-            (img.image.clone(), key)
-        })
-        .collect();
-    if frames.is_empty() {
+    let mapped = ds.mapped(plan);
+    if mapped.is_empty() {
         bail!(
             "{}: no training frames to retrieve from ({})",
             path.display(),
             ds.describe_split(plan)
         );
     }
-    Ok(RetrievalIndex::build(&frames)?)
+    Ok(RetrievalIndex::of_images(&mapped)?)
 }
 
 /// One output line in JSON lines format.

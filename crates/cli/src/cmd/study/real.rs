@@ -112,13 +112,7 @@ pub fn run(args: &RealArgs) -> Result<()> {
     let ds = posed::open(&args.data)?;
     let plan = args.blocks.map_or(SplitPlan::Auto, SplitPlan::Blocks);
     let parts = ds.parts(plan);
-    let mapped: Vec<&PosedImage> = ds
-        .images
-        .iter()
-        .zip(&parts)
-        .filter(|(_, p)| matches!(p, Some(SplitName::Train | SplitName::Val)))
-        .map(|(img, _)| img)
-        .collect();
+    let mapped = ds.mapped(plan);
     let test_index: Vec<usize> = (0..ds.images.len())
         .filter(|&i| parts[i] == Some(SplitName::Test))
         .collect();
@@ -294,17 +288,7 @@ fn mean_pose(mapped: &[&PosedImage], tests: usize) -> Result<Method> {
 /// Retrieval from every training and validation frame, and each test frame's nearest one.
 fn retrieval(mapped: &[&PosedImage], test_images: &[DynamicImage]) -> Result<(Method, Vec<usize>)> {
     let t = Instant::now();
-    let frames: Vec<(PathBuf, Keyframe)> = mapped
-        .iter()
-        .map(|img| {
-            let key = Keyframe {
-                name: format!("{}/{}", img.frame.seq, img.frame.name),
-                pose: img.frame.pose,
-            };
-            (img.image.clone(), key)
-        })
-        .collect();
-    let index = RetrievalIndex::build(&frames)?;
+    let index = RetrievalIndex::of_images(mapped)?;
     let train_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let found = test_images
@@ -344,17 +328,16 @@ fn feature_retrieval(
             None => return Ok(None),
         }
     }
+    let index =
+        RetrievalIndex::from_descriptors(mapped.iter().map(|i| Keyframe::of(i)).collect(), keys)?;
     let train_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let queries = loc.descriptors(test_views)?.unwrap_or_default();
     let poses = queries
         .iter()
         .map(|q| {
-            let score = |k: &Vec<f32>| k.iter().zip(q).map(|(a, b)| a * b).sum::<f32>();
-            let best = (0..keys.len())
-                .max_by(|&a, &b| score(&keys[a]).total_cmp(&score(&keys[b])))
-                .unwrap_or(0);
-            mapped[best].frame.pose
+            let best = index.query(q, 1).first().map_or(0, |h| h.index);
+            index.keyframes[best].pose
         })
         .collect();
     Ok(Some(Method {
