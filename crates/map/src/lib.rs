@@ -5,6 +5,7 @@
 #![deny(missing_docs)]
 
 mod error;
+pub mod pnp;
 pub mod retrieval;
 
 pub use error::{MapError, Result};

@@ -1,0 +1,267 @@
+//! FAST-9 corners (Rosten & Drummond 2006) with non-maximum suppression, ranked by the Harris
+//! response over a 7x7 window (as ORB ranks them), spread over a grid of cells so that one
+//! textured corner of the picture cannot take every feature, and placed to a fraction of a
+//! pixel by a parabola through the Harris response.
+
+use crate::ExtractConfig;
+use crate::describe::BORDER;
+use image::GrayImage;
+
+/// The 16 pixels of the radius-3 Bresenham circle, clockwise from the top.
+const CIRCLE: [(i32, i32); 16] = [
+    (0, -3),
+    (1, -3),
+    (2, -2),
+    (3, -1),
+    (3, 0),
+    (3, 1),
+    (2, 2),
+    (1, 3),
+    (0, 3),
+    (-1, 3),
+    (-2, 2),
+    (-3, 1),
+    (-3, 0),
+    (-3, -1),
+    (-2, -2),
+    (-1, -3),
+];
+
+/// Harris's k.
+const HARRIS_K: f32 = 0.04;
+/// Half the Harris window (7x7).
+const HARRIS_HALF: i32 = 3;
+
+/// A corner of one pyramid level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Corner {
+    /// Pixel column and row on the level.
+    pub x: u32,
+    pub y: u32,
+    /// Sub-pixel offset from the pixel, in [-0.5, 0.5].
+    pub dx: f32,
+    pub dy: f32,
+    /// Harris response.
+    pub response: f32,
+}
+
+/// Up to `quota` corners of a level (see the module docs): FAST at `cfg.threshold`, again at
+/// `cfg.min_threshold` when that finds fewer than `quota`.
+pub(crate) fn corners(img: &GrayImage, quota: usize, cfg: &ExtractConfig) -> Vec<Corner> {
+    let mut found = fast(img, cfg.threshold);
+    if found.len() < quota && cfg.min_threshold < cfg.threshold {
+        found = fast(img, cfg.min_threshold);
+    }
+    let mut ranked: Vec<Corner> = found
+        .into_iter()
+        .map(|(x, y)| Corner {
+            x,
+            y,
+            dx: 0.0,
+            dy: 0.0,
+            response: harris(img, x as i32, y as i32),
+        })
+        .collect();
+    ranked.sort_by(|a, b| b.response.total_cmp(&a.response));
+    let mut chosen = spread(ranked, quota, img.width(), img.height(), cfg.cell);
+    for c in &mut chosen {
+        refine(img, c);
+    }
+    chosen
+}
+
+/// FAST-9 corners after 3x3 non-maximum suppression on the FAST score, inside the border a
+/// descriptor needs.
+fn fast(img: &GrayImage, threshold: u8) -> Vec<(u32, u32)> {
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let b = BORDER as usize;
+    if w <= 2 * b || h <= 2 * b {
+        return Vec::new();
+    }
+    let px = img.as_raw();
+    let offsets: Vec<isize> = CIRCLE
+        .iter()
+        .map(|&(dx, dy)| dy as isize * w as isize + dx as isize)
+        .collect();
+    let t = i16::from(threshold);
+    let mut score = vec![0u16; w * h];
+    let mut candidates = Vec::new();
+    for y in b..h - b {
+        let row = y * w;
+        for x in b..w - b {
+            let i = row + x;
+            let p = i16::from(px[i]);
+            let (hi, lo) = (p + t, p - t);
+            let at = |k: usize| i16::from(px[(i as isize + offsets[k]) as usize]);
+            // Any 9 contiguous pixels of the 16 hold at least two of the four compass points.
+            let compass = [at(0), at(4), at(8), at(12)];
+            let bright = compass.iter().filter(|&&v| v > hi).count();
+            let dark = compass.iter().filter(|&&v| v < lo).count();
+            if bright < 2 && dark < 2 {
+                continue;
+            }
+            let (mut bmask, mut dmask) = (0u32, 0u32);
+            let (mut bsum, mut dsum) = (0u32, 0u32);
+            for k in 0..16 {
+                let v = at(k);
+                if v > hi {
+                    bmask |= 1 << k;
+                    bsum += (v - hi) as u32;
+                } else if v < lo {
+                    dmask |= 1 << k;
+                    dsum += (lo - v) as u32;
+                }
+            }
+            if has_arc_of_nine(bmask) || has_arc_of_nine(dmask) {
+                score[i] = bsum.max(dsum).clamp(1, u32::from(u16::MAX)) as u16;
+                candidates.push((x as u32, y as u32));
+            }
+        }
+    }
+    candidates.retain(|&(x, y)| {
+        let i = y as usize * w + x as usize;
+        let s = score[i];
+        // Ties go to the first in scan order: strictly above the neighbours before, at
+        // least the neighbours after.
+        let before = [i - w - 1, i - w, i - w + 1, i - 1];
+        let after = [i + 1, i + w - 1, i + w, i + w + 1];
+        before.iter().all(|&j| s > score[j]) && after.iter().all(|&j| s >= score[j])
+    });
+    candidates
+}
+
+/// True when nine consecutive bits (circularly) of a 16-bit mask are set.
+fn has_arc_of_nine(mask: u32) -> bool {
+    let m = mask | (mask << 16);
+    let mut run = m;
+    for s in 1..9 {
+        run &= m >> s;
+    }
+    run != 0
+}
+
+/// Harris response at a pixel: central-difference gradients over a 7x7 window.
+fn harris(img: &GrayImage, x: i32, y: i32) -> f32 {
+    let w = img.width() as i32;
+    let px = img.as_raw();
+    let at = |xx: i32, yy: i32| f32::from(px[(yy * w + xx) as usize]);
+    let (mut a, mut b, mut c) = (0.0f32, 0.0f32, 0.0f32);
+    for yy in y - HARRIS_HALF..=y + HARRIS_HALF {
+        for xx in x - HARRIS_HALF..=x + HARRIS_HALF {
+            let gx = at(xx + 1, yy) - at(xx - 1, yy);
+            let gy = at(xx, yy + 1) - at(xx, yy - 1);
+            a += gx * gx;
+            b += gy * gy;
+            c += gx * gy;
+        }
+    }
+    a * b - c * c - HARRIS_K * (a + b) * (a + b)
+}
+
+/// The strongest corners (ranked, best first) with at most a fair share per grid cell; what
+/// the cells leave over fills the quota in rank order.
+fn spread(ranked: Vec<Corner>, quota: usize, w: u32, h: u32, cell: u32) -> Vec<Corner> {
+    if ranked.len() <= quota {
+        return ranked;
+    }
+    let (cols, rows) = (w.div_ceil(cell) as usize, h.div_ceil(cell) as usize);
+    let cap = (2 * quota).div_ceil(cols * rows).max(2);
+    let mut per_cell = vec![0usize; cols * rows];
+    let mut chosen = Vec::with_capacity(quota);
+    let mut left = Vec::new();
+    for c in ranked {
+        let k = (c.y / cell) as usize * cols + (c.x / cell) as usize;
+        if chosen.len() < quota && per_cell[k] < cap {
+            per_cell[k] += 1;
+            chosen.push(c);
+        } else {
+            left.push(c);
+        }
+    }
+    let missing = quota - chosen.len();
+    chosen.extend(left.into_iter().take(missing));
+    chosen
+}
+
+/// Moves a corner to the peak of a parabola through the Harris response of it and its
+/// neighbours, per axis, when it is a peak along that axis (offset within half a pixel).
+fn refine(img: &GrayImage, c: &mut Corner) {
+    let (x, y) = (c.x as i32, c.y as i32);
+    let r0 = c.response;
+    let peak = |minus: f32, plus: f32| {
+        let curvature = minus - 2.0 * r0 + plus;
+        if curvature < 0.0 {
+            (0.5 * (minus - plus) / curvature).clamp(-0.5, 0.5)
+        } else {
+            0.0
+        }
+    };
+    c.dx = peak(harris(img, x - 1, y), harris(img, x + 1, y));
+    c.dy = peak(harris(img, x, y - 1), harris(img, x, y + 1));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use image::Luma;
+
+    /// A dark image with one bright square: four corners.
+    fn square() -> GrayImage {
+        let mut img = GrayImage::from_pixel(96, 96, Luma([30]));
+        for y in 30..66 {
+            for x in 30..66 {
+                img.put_pixel(x, y, Luma([200]));
+            }
+        }
+        img
+    }
+
+    #[test]
+    fn arcs_of_nine_are_found_around_the_circle() {
+        assert!(has_arc_of_nine(0b1_1111_1111));
+        assert!(has_arc_of_nine(0b1111_0000_0000_0011_1111 & 0xffff | 0xf000));
+        assert!(!has_arc_of_nine(0b1111_1111));
+        assert!(!has_arc_of_nine(0b0101_0101_0101_0101));
+        // Wrapping: bits 12..16 and 0..5 (nine).
+        assert!(has_arc_of_nine(0xf000 | 0b1_1111));
+    }
+
+    #[test]
+    fn the_corners_of_a_square_are_found_near_its_corners() {
+        let img = square();
+        let cfg = ExtractConfig::default();
+        let found = corners(&img, 10, &cfg);
+        assert!(found.len() >= 4, "{found:?}");
+        for (cx, cy) in [(30.0, 30.0), (65.0, 30.0), (30.0, 65.0), (65.0, 65.0)] {
+            let best = found
+                .iter()
+                .map(|c| {
+                    let (x, y) = (c.x as f32 + c.dx, c.y as f32 + c.dy);
+                    ((x - cx).powi(2) + (y - cy).powi(2)).sqrt()
+                })
+                .fold(f32::INFINITY, f32::min);
+            assert!(best < 2.5, "no corner near ({cx}, {cy}): {found:?}");
+        }
+        // A flat image has none.
+        assert!(corners(&GrayImage::from_pixel(96, 96, Luma([90])), 10, &cfg).is_empty());
+    }
+
+    #[test]
+    fn the_grid_keeps_strong_corners_from_crowding_one_cell() {
+        let mk = |x, y, r| Corner {
+            x,
+            y,
+            dx: 0.0,
+            dy: 0.0,
+            response: r,
+        };
+        // Ten strong corners in one cell, two weak ones elsewhere; quota 4 over 4 cells: cap 2.
+        let mut ranked: Vec<Corner> = (0..10).map(|i| mk(i, 1, 100.0 - i as f32)).collect();
+        ranked.push(mk(40, 40, 1.0));
+        ranked.push(mk(40, 5, 0.5));
+        let got = spread(ranked, 4, 64, 64, 32);
+        assert_eq!(got.len(), 4);
+        assert!(got.iter().any(|c| c.x == 40 && c.y == 40));
+        assert!(got.iter().any(|c| c.x == 40 && c.y == 5));
+    }
+}
