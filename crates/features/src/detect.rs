@@ -219,7 +219,9 @@ mod tests {
     #[test]
     fn arcs_of_nine_are_found_around_the_circle() {
         assert!(has_arc_of_nine(0b1_1111_1111));
-        assert!(has_arc_of_nine(0b1111_0000_0000_0011_1111 & 0xffff | 0xf000));
+        assert!(has_arc_of_nine(
+            0b1111_0000_0000_0011_1111 & 0xffff | 0xf000
+        ));
         assert!(!has_arc_of_nine(0b1111_1111));
         assert!(!has_arc_of_nine(0b0101_0101_0101_0101));
         // Wrapping: bits 12..16 and 0..5 (nine).

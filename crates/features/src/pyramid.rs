@@ -37,8 +37,7 @@ impl Pyramid {
                 dst
             };
             // The true scale of a rounded size, per axis averaged.
-            let true_scale = 0.5
-                * (img.width() as f32 / w as f32 + img.height() as f32 / h as f32);
+            let true_scale = 0.5 * (img.width() as f32 / w as f32 + img.height() as f32 / h as f32);
             out.levels.push(image);
             out.scales.push(true_scale);
         }

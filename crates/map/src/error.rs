@@ -13,6 +13,15 @@ pub enum MapError {
         /// What the decoder or the view said.
         msg: String,
     },
+    /// A map file that cannot be written or read (missing, not a map, another version,
+    /// truncated, corrupt).
+    #[error("{path}: {msg}")]
+    File {
+        /// The map file.
+        path: PathBuf,
+        /// What is wrong with it.
+        msg: String,
+    },
     /// Input that cannot be used (an empty map, images of different sizes).
     #[error("{0}")]
     Input(String),

@@ -138,10 +138,7 @@ pub fn solve(camera: &Camera, corr: &[Correspondence], cfg: &PnpConfig) -> Optio
             continue;
         }
         let sample = [i, j, k];
-        for hyp in p3p(
-            sample.map(|s| bearings[s]),
-            sample.map(|s| corr[s].world),
-        ) {
+        for hyp in p3p(sample.map(|s| bearings[s]), sample.map(|s| corr[s].world)) {
             let bar = best.map_or(0, |b| b.1);
             let count = count_inliers(camera, corr, &hyp, thr2, bar);
             if count > bar {
@@ -178,7 +175,9 @@ pub fn solve(camera: &Camera, corr: &[Correspondence], cfg: &PnpConfig) -> Optio
 /// fraction `w` are inliers.
 fn iterations_for(w: f64, confidence: f64) -> usize {
     let p_good = w.powi(3).clamp(1e-12, 1.0 - 1e-12);
-    ((1.0 - confidence).ln() / (1.0 - p_good).ln()).ceil().max(1.0) as usize
+    ((1.0 - confidence).ln() / (1.0 - p_good).ln())
+        .ceil()
+        .max(1.0) as usize
 }
 
 /// Inliers of a pose, stopping early once it cannot beat `bar`.
@@ -277,7 +276,12 @@ fn real_roots(p: &[f64]) -> Vec<f64> {
                 .collect()
         }
     };
-    let dp: Vec<f64> = p.iter().enumerate().skip(1).map(|(i, c)| i as f64 * c).collect();
+    let dp: Vec<f64> = p
+        .iter()
+        .enumerate()
+        .skip(1)
+        .map(|(i, c)| i as f64 * c)
+        .collect();
     roots
         .into_iter()
         .map(|mut x| {
@@ -358,6 +362,9 @@ fn align(x: &[Vector3<f64>; 3], p: &[Vector3<f64>; 3]) -> Option<WorldToCamera> 
 /// Huber threshold of the refinement, pixels.
 const HUBER_PX: f64 = 1.5;
 
+/// One correspondence linearised: its residual (pixels) and the two Jacobian rows.
+type Linearized = ([f64; 2], [[f64; 6]; 2]);
+
 /// Residuals (2 per correspondence) and their Jacobian rows with respect to a small rotation
 /// (left-multiplied, camera frame) and a shift of the camera centre, for the listed
 /// correspondences; `None` when a point falls behind the camera.
@@ -366,7 +373,7 @@ fn linearize(
     corr: &[Correspondence],
     idx: &[usize],
     pose: &WorldToCamera,
-) -> Option<Vec<([f64; 2], [[f64; 6]; 2])>> {
+) -> Option<Vec<Linearized>> {
     let r = pose.r;
     idx.iter()
         .map(|&i| {
@@ -402,7 +409,7 @@ fn step(pose: &WorldToCamera, delta: &Vector6<f64>) -> WorldToCamera {
     WorldToCamera { r, t: -(r * c) }
 }
 
-fn huber_cost(lin: &[([f64; 2], [[f64; 6]; 2])]) -> f64 {
+fn huber_cost(lin: &[Linearized]) -> f64 {
     lin.iter()
         .map(|(res, _)| {
             let e = (res[0] * res[0] + res[1] * res[1]).sqrt();

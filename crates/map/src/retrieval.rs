@@ -141,6 +141,12 @@ impl RetrievalIndex {
         })
     }
 
+    /// The descriptor of keyframe `i`.
+    pub fn descriptor(&self, i: usize) -> &[f32] {
+        let w = self.descriptors.len() / self.keyframes.len().max(1);
+        &self.descriptors[i * w..(i + 1) * w]
+    }
+
     /// Number of mapped frames.
     pub fn len(&self) -> usize {
         self.keyframes.len()

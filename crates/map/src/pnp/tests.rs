@@ -30,7 +30,11 @@ fn scene(n: usize, noise: f64, outliers: usize, seed: u64) -> Vec<Correspondence
         .map(|i| {
             let px = Vector2::new(rng.random_range(10.0..630.0), rng.random_range(10.0..470.0));
             let z = rng.random_range(1.0..4.0);
-            let cam_pt = Vector3::new((px.x - cam.cx) / cam.fx * z, (px.y - cam.cy) / cam.fy * z, z);
+            let cam_pt = Vector3::new(
+                (px.x - cam.cx) / cam.fx * z,
+                (px.y - cam.cy) / cam.fy * z,
+                z,
+            );
             let world = w2c.r.transpose() * (cam_pt - w2c.t);
             let jitter = Vector2::new(
                 rng.random_range(-noise..=noise),
@@ -52,7 +56,12 @@ fn p3p_recovers_the_pose_among_its_solutions() {
     let cam = camera();
     let f = [0, 1, 2].map(|i| {
         let c = corr[i];
-        Vector3::new((c.pixel.x - cam.cx) / cam.fx, (c.pixel.y - cam.cy) / cam.fy, 1.0).normalize()
+        Vector3::new(
+            (c.pixel.x - cam.cx) / cam.fx,
+            (c.pixel.y - cam.cy) / cam.fy,
+            1.0,
+        )
+        .normalize()
     });
     let sols = p3p(f, [0, 1, 2].map(|i| corr[i].world));
     assert!(!sols.is_empty() && sols.len() <= 4, "{}", sols.len());

@@ -4,6 +4,7 @@
 mod learn;
 mod markers;
 mod preprocess;
+mod refine;
 mod scenecut;
 mod serve;
 
@@ -40,6 +41,10 @@ pub enum Stage {
     /// ArUco detection ms per photo (DICT_6X6_250 photos of ../shared/data/aruco_real), one
     /// thread and all, against OpenCV's ArucoDetector (aruco.py).
     Markers,
+    /// Centimetre refinement (keyframe map, local features, PnP) on the shared kitchen frames:
+    /// accuracy and ms per 640x480 query on one thread, against OpenCV SIFT + PnP
+    /// (sift_pnp.py), on the README's split and on shorter blocks; the map's build time.
+    Refine,
     /// The live pipeline's frames/s and p99 latency on the demo's held-out walk (MC off and
     /// on), and the server under many WebSocket clients (not in the default run: it needs a
     /// trained demo, `--demo-dir`).
@@ -94,6 +99,14 @@ pub struct BenchArgs {
     /// Frames per second the load test plays the walk at.
     #[arg(long, default_value_t = 30.0)]
     load_fps: f64,
+    /// Posed RGB-D dataset of the refine benchmark (default:
+    /// ../shared/data/7scenes_redkitchen_seq01).
+    #[arg(long, value_name = "DATASET")]
+    refine_data: Option<PathBuf>,
+    /// Block splits of the refine benchmark, BLOCK:EVERY[:OFFSET] (repeatable; default 100:5
+    /// and 40:4).
+    #[arg(long, value_name = "BLOCK:EVERY[:OFFSET]")]
+    refine_blocks: Vec<data::blocks::BlockSplit>,
     /// Print one JSON document instead of a table.
     #[arg(long)]
     json: bool,
@@ -171,6 +184,8 @@ struct BenchOutput {
     markers: Vec<markers::MarkerFigures>,
     #[serde(skip_serializing_if = "Option::is_none")]
     serve: Option<serve::ServeFigures>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    refine: Vec<refine::RefineFigures>,
 }
 
 /// Runs `indoorloc bench`.
@@ -188,6 +203,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             Stage::Infer,
             Stage::Scenecut,
             Stage::Markers,
+            Stage::Refine,
         ],
     };
     let mut out = BenchOutput {
@@ -198,6 +214,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         scenecut: None,
         markers: Vec::new(),
         serve: None,
+        refine: Vec::new(),
     };
     let (train, infer) = (
         stages.contains(&Stage::Train),
@@ -225,6 +242,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             }
             Stage::Train | Stage::Infer => {}
             Stage::Markers => out.markers = markers::bench(peer_python(args))?,
+            Stage::Refine => {
+                out.refine = refine::bench(
+                    args.refine_data.as_deref(),
+                    &args.refine_blocks,
+                    peer_python(args),
+                )?
+            }
             Stage::Serve => {
                 out.serve = Some(serve::bench(
                     &args.demo_dir,
@@ -252,6 +276,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             text.push_str(&scenecut::table(s));
         }
         text.push_str(&markers::table(&out.markers));
+        text.push_str(&refine::table(&out.refine));
         if let Some(s) = &out.serve {
             text.push_str(&serve::table(s));
         }

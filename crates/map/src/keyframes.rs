@@ -1,0 +1,198 @@
+//! The keyframe map: frames of a posed dataset kept every few centimetres of the camera's path,
+//! each with its retrieval descriptor and its local features lifted to 3-D by its depth.
+
+use crate::depth::{DepthModel, read_depth};
+use crate::retrieval::{self, Keyframe, RetrievalIndex};
+use crate::{MapError, Result};
+use data::posed::PosedImage;
+use features::{Descriptor, ExtractConfig};
+use geom::{Camera, Pose};
+use image::{DynamicImage, GrayImage};
+use rayon::prelude::*;
+
+/// The local features of a keyframe that have a 3-D point.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MappedFeatures {
+    /// Keypoint pixels in the keyframe.
+    pub keypoints: Vec<[f32; 2]>,
+    /// Their world points, metres.
+    pub points: Vec<[f32; 3]>,
+    /// Their descriptors.
+    pub descriptors: Vec<Descriptor>,
+}
+
+impl MappedFeatures {
+    /// Number of features.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// True when none was lifted.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+}
+
+/// The map of a building (see the module docs).
+#[derive(Clone, Debug)]
+pub struct KeyframeMap {
+    /// The camera of the mapped (and queried) images.
+    pub camera: Camera,
+    /// The feature settings the map was built with (queries use the same).
+    pub extract: ExtractConfig,
+    /// Keyframe names, poses and retrieval descriptors.
+    pub retrieval: RetrievalIndex,
+    /// Each keyframe's lifted features, in keyframe order.
+    pub features: Vec<MappedFeatures>,
+}
+
+impl KeyframeMap {
+    /// Number of keyframes.
+    pub fn len(&self) -> usize {
+        self.features.len()
+    }
+
+    /// True when nothing is mapped.
+    pub fn is_empty(&self) -> bool {
+        self.features.is_empty()
+    }
+
+    /// Number of 3-D points over all keyframes.
+    pub fn points(&self) -> usize {
+        self.features.iter().map(MappedFeatures::len).sum()
+    }
+}
+
+/// How a map is built.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildConfig {
+    /// Local features of each keyframe.
+    pub extract: ExtractConfig,
+    /// A frame becomes a keyframe when the camera has moved this far since the last one…
+    pub spacing_m: f64,
+    /// …or turned this many degrees.
+    pub spacing_deg: f64,
+}
+
+impl Default for BuildConfig {
+    /// Default features; a keyframe every 2 cm or 2°.
+    fn default() -> Self {
+        BuildConfig {
+            extract: ExtractConfig::default(),
+            spacing_m: 0.02,
+            spacing_deg: 2.0,
+        }
+    }
+}
+
+/// The frames kept as keyframes: the first of each sequence, then each that has moved or
+/// turned past the spacing since the last kept one.
+pub fn select_keyframes<'a>(images: &[&'a PosedImage], cfg: &BuildConfig) -> Vec<&'a PosedImage> {
+    let mut out: Vec<&PosedImage> = Vec::new();
+    for img in images {
+        let keep = match out.last() {
+            Some(last) if last.frame.seq == img.frame.seq => {
+                geom::metrics::position_error(&last.frame.pose, &img.frame.pose) >= cfg.spacing_m
+                    || geom::metrics::rotation_error_deg(&last.frame.pose, &img.frame.pose)
+                        >= cfg.spacing_deg
+            }
+            _ => true,
+        };
+        if keep {
+            out.push(img);
+        }
+    }
+    out
+}
+
+/// The grey image features are found on (OpenCV's weights, [`imgproc::view::rgb_to_gray`]).
+pub fn gray_of(img: &DynamicImage) -> Result<GrayImage> {
+    if let DynamicImage::ImageLuma8(g) = img {
+        return Ok(g.clone());
+    }
+    let rgb = img.to_rgb8();
+    let mut gray = GrayImage::new(rgb.width(), rgb.height());
+    imgproc::view::rgb_to_gray(&rgb, &mut gray)
+        .map_err(|e| MapError::Input(format!("grey conversion: {e}")))?;
+    Ok(gray)
+}
+
+/// Builds the map of posed images with depth (keyframes chosen by [`select_keyframes`],
+/// described in parallel; `tick` is called once per keyframe done). Errors name the first
+/// frame without depth or whose image cannot be read, or of another size than `camera`.
+pub fn build(
+    images: &[&PosedImage],
+    camera: &Camera,
+    depth: &DepthModel,
+    cfg: &BuildConfig,
+    tick: &(dyn Fn() + Sync),
+) -> Result<KeyframeMap> {
+    let chosen = select_keyframes(images, cfg);
+    if chosen.is_empty() {
+        return Err(MapError::Input("no frames to map".into()));
+    }
+    if let Some(img) = chosen.iter().find(|i| i.depth.is_none()) {
+        return Err(MapError::Image {
+            path: img.image.clone(),
+            msg: "this frame has no depth image: a map lifts features to 3-D with depth".into(),
+        });
+    }
+    let described: Vec<(Vec<f32>, MappedFeatures)> = chosen
+        .par_iter()
+        .map(|img| {
+            let out = describe_keyframe(img, camera, depth, &cfg.extract);
+            tick();
+            out
+        })
+        .collect::<Result<_>>()?;
+    let (thumbs, features): (Vec<_>, Vec<_>) = described.into_iter().unzip();
+    let keyframes = chosen.iter().map(|i| Keyframe::of(i)).collect();
+    Ok(KeyframeMap {
+        camera: *camera,
+        extract: cfg.extract,
+        retrieval: RetrievalIndex::from_descriptors(keyframes, thumbs)?,
+        features,
+    })
+}
+
+/// One keyframe's retrieval descriptor and lifted features.
+fn describe_keyframe(
+    img: &PosedImage,
+    camera: &Camera,
+    depth_model: &DepthModel,
+    extract: &ExtractConfig,
+) -> Result<(Vec<f32>, MappedFeatures)> {
+    let image_err = |path: &std::path::Path, msg: String| MapError::Image {
+        path: path.to_path_buf(),
+        msg,
+    };
+    let colour =
+        data::frames::decode_image(&img.image).map_err(|e| image_err(&img.image, e.to_string()))?;
+    if (colour.width(), colour.height()) != (camera.width, camera.height) {
+        return Err(image_err(
+            &img.image,
+            format!(
+                "{}x{} image, the dataset's camera is {}x{}",
+                colour.width(),
+                colour.height(),
+                camera.width,
+                camera.height
+            ),
+        ));
+    }
+    let depth_path = img.depth.as_deref().expect("checked by build");
+    let depth = read_depth(depth_path)?;
+    let gray = gray_of(&colour)?;
+    let found =
+        features::extract(&gray, extract).map_err(|e| image_err(&img.image, e.to_string()))?;
+    let mut out = MappedFeatures::default();
+    for (kp, d) in found.keypoints.iter().zip(&found.descriptors) {
+        let pose: &Pose = &img.frame.pose;
+        if let Some(p) = depth_model.lift(&depth, camera, pose, f64::from(kp.x), f64::from(kp.y)) {
+            out.keypoints.push([kp.x, kp.y]);
+            out.points.push([p.x as f32, p.y as f32, p.z as f32]);
+            out.descriptors.push(*d);
+        }
+    }
+    Ok((retrieval::descriptor(&colour)?, out))
+}

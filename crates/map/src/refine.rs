@@ -1,0 +1,315 @@
+//! A query image's pose from the map: candidates (the keyframes retrieval finds most similar,
+//! and those nearest the coarse pose when there is one), the query's features matched to
+//! theirs, each match a pixel of the query and a world point, and the pose from PnP + RANSAC
+//! ([`crate::pnp`]). The refinement is refused, and the coarse pose kept, when too few inliers
+//! agree or when the answer lies farther from the coarse pose than its sigma allows: a blank
+//! wall, a dark frame or a frame from elsewhere must not throw a tracker off.
+
+use crate::keyframes::{KeyframeMap, gray_of};
+use crate::pnp::{self, Correspondence, PnpConfig};
+use crate::{MapError, Result, retrieval};
+use features::MatchConfig;
+use geom::Pose;
+use image::DynamicImage;
+use nalgebra::{Matrix3, Vector2, Vector3};
+use std::time::Instant;
+
+/// A pose from elsewhere (the network, a filter) that refinement starts from and is checked
+/// against.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Coarse {
+    /// The coarse camera-to-world pose.
+    pub pose: Pose,
+    /// Its position uncertainty (one sigma), metres.
+    pub sigma_pos_m: f64,
+}
+
+/// Settings of [`KeyframeMap::refine`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RefineConfig {
+    /// Keyframes taken from retrieval.
+    pub retrieved: usize,
+    /// Keyframes taken nearest the coarse pose (facing within 45° of it).
+    pub near_coarse: usize,
+    /// Keyframes nearest the first PnP pose matched in a second pass, whose correspondences
+    /// join the first pass's for a second PnP (0: one pass).
+    pub near_refined: usize,
+    /// Feature matching.
+    pub matching: MatchConfig,
+    /// PnP + RANSAC.
+    pub pnp: PnpConfig,
+    /// Fewest inliers of an accepted pose.
+    pub min_inliers: usize,
+    /// A refined pose farther than this many coarse sigmas from the coarse pose is refused…
+    pub gate_sigmas: f64,
+    /// …but never closer than this, metres (a coarse sigma can be overconfident).
+    pub gate_floor_m: f64,
+}
+
+impl Default for RefineConfig {
+    /// Three retrieved keyframes and two near the coarse pose, 15 inliers, 3 sigmas (≥ 0.25 m).
+    fn default() -> Self {
+        RefineConfig {
+            retrieved: 3,
+            near_coarse: 2,
+            near_refined: 3,
+            matching: MatchConfig::default(),
+            pnp: PnpConfig::default(),
+            min_inliers: 15,
+            gate_sigmas: 3.0,
+            gate_floor_m: 0.25,
+        }
+    }
+}
+
+/// Why a query kept its coarse pose.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Fallback {
+    /// The query image has no features (blank, dark, blurred).
+    NoFeatures,
+    /// Too few of its features match the candidate keyframes.
+    TooFewMatches {
+        /// Matches found.
+        matches: usize,
+    },
+    /// PnP found no pose with enough inliers.
+    TooFewInliers {
+        /// Inliers of the best pose.
+        inliers: usize,
+        /// Inliers needed.
+        needed: usize,
+    },
+    /// The refined pose is farther from the coarse pose than its sigma allows.
+    FarFromCoarse {
+        /// Distance between the two, metres.
+        distance_m: f64,
+        /// The largest distance accepted, metres.
+        allowed_m: f64,
+    },
+}
+
+impl std::fmt::Display for Fallback {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Fallback::NoFeatures => write!(f, "no features in the query"),
+            Fallback::TooFewMatches { matches } => write!(f, "{matches} matches, too few"),
+            Fallback::TooFewInliers { inliers, needed } => {
+                write!(f, "{inliers} inliers, {needed} needed")
+            }
+            Fallback::FarFromCoarse {
+                distance_m,
+                allowed_m,
+            } => write!(
+                f,
+                "refined pose {distance_m:.2} m from the coarse one, {allowed_m:.2} m allowed"
+            ),
+        }
+    }
+}
+
+/// Where a refinement's time went, milliseconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Timings {
+    /// Grey conversion, retrieval descriptor and search, local features.
+    pub features_ms: f64,
+    /// Matching against the candidates.
+    pub matching_ms: f64,
+    /// PnP + RANSAC + refinement.
+    pub pnp_ms: f64,
+}
+
+/// What [`KeyframeMap::refine`] answers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Refinement {
+    /// The refined pose, or the coarse one (retrieval's when none was given) on a fallback.
+    pub pose: Pose,
+    /// True when the pose comes from the map's geometry.
+    pub refined: bool,
+    /// PnP inliers (0 when PnP did not run).
+    pub inliers: usize,
+    /// Matches PnP was given.
+    pub matches: usize,
+    /// Covariance of the refined position, m² (row-major), when refined.
+    pub cov_pos_m2: Option<Matrix3<f64>>,
+    /// Why the coarse pose was kept.
+    pub fallback: Option<Fallback>,
+    /// The keyframes matched against (indices into the map).
+    pub candidates: Vec<usize>,
+    /// Where the time went.
+    pub timings: Timings,
+}
+
+impl KeyframeMap {
+    /// Refines the pose of a query image (see the module docs). The query may be of another
+    /// resolution than the mapped images (the same camera, scaled).
+    pub fn refine(
+        &self,
+        img: &DynamicImage,
+        coarse: Option<&Coarse>,
+        cfg: &RefineConfig,
+    ) -> Result<Refinement> {
+        if self.is_empty() {
+            return Err(MapError::Input("the map has no keyframes".into()));
+        }
+        let t0 = Instant::now();
+        let camera = if (img.width(), img.height()) == (self.camera.width, self.camera.height) {
+            self.camera
+        } else {
+            self.camera.resized(img.width(), img.height())
+        };
+        let hits = self
+            .retrieval
+            .query(&retrieval::descriptor(img)?, cfg.retrieved.max(1));
+        let mut candidates: Vec<usize> = hits.iter().map(|h| h.index).collect();
+        if let Some(c) = coarse {
+            for k in self.nearest_keyframes(&c.pose, cfg.near_coarse) {
+                if !candidates.contains(&k) {
+                    candidates.push(k);
+                }
+            }
+        }
+        let fallback_pose = coarse.map_or(self.retrieval.keyframes[candidates[0]].pose, |c| c.pose);
+        let gray = gray_of(img)?;
+        let query = features::extract(&gray, &self.extract)
+            .map_err(|e| MapError::Input(format!("query features: {e}")))?;
+        let mut timings = Timings {
+            features_ms: ms_since(t0),
+            ..Timings::default()
+        };
+        let fallback = |why: Fallback, inliers, matches, candidates, timings| Refinement {
+            pose: fallback_pose,
+            refined: false,
+            inliers,
+            matches,
+            cov_pos_m2: None,
+            fallback: Some(why),
+            candidates,
+            timings,
+        };
+        if query.is_empty() {
+            return Ok(fallback(Fallback::NoFeatures, 0, 0, candidates, timings));
+        }
+        let t1 = Instant::now();
+        let mut corr = Vec::new();
+        for &k in &candidates {
+            self.match_keyframe(&query, k, cfg, &mut corr);
+        }
+        timings.matching_ms = ms_since(t1);
+        if corr.len() < cfg.min_inliers.max(4) {
+            return Ok(fallback(
+                Fallback::TooFewMatches {
+                    matches: corr.len(),
+                },
+                0,
+                corr.len(),
+                candidates,
+                timings,
+            ));
+        }
+        let t2 = Instant::now();
+        let mut solution = pnp::solve(&camera, &corr, &cfg.pnp);
+        timings.pnp_ms = ms_since(t2);
+        if let Some(first) = solution
+            .as_ref()
+            .filter(|s| s.inliers.len() >= cfg.min_inliers)
+        {
+            let more: Vec<usize> = self
+                .nearest_keyframes(&first.pose.to_pose(), cfg.near_refined)
+                .into_iter()
+                .filter(|k| !candidates.contains(k))
+                .collect();
+            if !more.is_empty() {
+                let t3 = Instant::now();
+                for &k in &more {
+                    self.match_keyframe(&query, k, cfg, &mut corr);
+                }
+                candidates.extend(more);
+                timings.matching_ms += ms_since(t3);
+                let t4 = Instant::now();
+                if let Some(second) = pnp::solve(&camera, &corr, &cfg.pnp) {
+                    if second.inliers.len() >= first.inliers.len() {
+                        solution = Some(second);
+                    }
+                }
+                timings.pnp_ms += ms_since(t4);
+            }
+        }
+        let inliers = solution.as_ref().map_or(0, |s| s.inliers.len());
+        let Some(sol) = solution.filter(|s| s.inliers.len() >= cfg.min_inliers) else {
+            return Ok(fallback(
+                Fallback::TooFewInliers {
+                    inliers,
+                    needed: cfg.min_inliers,
+                },
+                inliers,
+                corr.len(),
+                candidates,
+                timings,
+            ));
+        };
+        let pose = sol.pose.to_pose();
+        if let Some(c) = coarse {
+            let distance_m = geom::metrics::position_error(&c.pose, &pose);
+            let allowed_m = (cfg.gate_sigmas * c.sigma_pos_m).max(cfg.gate_floor_m);
+            if distance_m > allowed_m {
+                return Ok(fallback(
+                    Fallback::FarFromCoarse {
+                        distance_m,
+                        allowed_m,
+                    },
+                    inliers,
+                    corr.len(),
+                    candidates,
+                    timings,
+                ));
+            }
+        }
+        Ok(Refinement {
+            pose,
+            refined: true,
+            inliers,
+            matches: corr.len(),
+            cov_pos_m2: Some(sol.cov_pos_m2),
+            fallback: None,
+            candidates,
+            timings,
+        })
+    }
+
+    /// Appends the correspondences of the query's features matched to keyframe `k`'s.
+    fn match_keyframe(
+        &self,
+        query: &features::Features,
+        k: usize,
+        cfg: &RefineConfig,
+        corr: &mut Vec<Correspondence>,
+    ) {
+        let kf = &self.features[k];
+        for m in features::match_descriptors(&query.descriptors, &kf.descriptors, &cfg.matching) {
+            let kp = &query.keypoints[m.query];
+            let p = kf.points[m.train];
+            corr.push(Correspondence {
+                world: Vector3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])),
+                pixel: Vector2::new(f64::from(kp.x), f64::from(kp.y)),
+            });
+        }
+    }
+
+    /// The `k` keyframes nearest a pose that face within 45° of it.
+    fn nearest_keyframes(&self, pose: &Pose, k: usize) -> Vec<usize> {
+        let mut near: Vec<(f64, usize)> = self
+            .retrieval
+            .keyframes
+            .iter()
+            .enumerate()
+            .filter(|(_, kf)| geom::metrics::rotation_error_deg(pose, &kf.pose) < 45.0)
+            .map(|(i, kf)| (geom::metrics::position_error(pose, &kf.pose), i))
+            .collect();
+        near.sort_by(|a, b| a.0.total_cmp(&b.0));
+        near.into_iter().take(k).map(|(_, i)| i).collect()
+    }
+}
+
+fn ms_since(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
