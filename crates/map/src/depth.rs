@@ -158,7 +158,7 @@ mod tests {
         let pose = Pose::from_t_wxyz([1.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]).unwrap();
         let p = model().lift(&depth, &cam(), &pose, 42.0, 24.0).unwrap();
         assert!(
-            (p - Point3::new(1.0 + 0.2 * 2.0, 0.0, 2.0)).norm() < 1e-9,
+            (p - Point3::new(1.0 + 0.2 * 3.0, 0.0, 3.0)).norm() < 1e-9,
             "{p}"
         );
         // At the step, and at the border, nothing.
