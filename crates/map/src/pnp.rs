@@ -27,6 +27,9 @@ pub struct Correspondence {
     pub world: Vector3<f64>,
     /// Its pixel in the query (undistorted), pixels.
     pub pixel: Vector2<f64>,
+    /// The pixel's standard error, pixels (a keypoint found on a coarser pyramid level is
+    /// placed less precisely): its residual is divided by it in the refinement.
+    pub sigma_px: f64,
 }
 
 /// Settings of [`solve`].
@@ -102,7 +105,8 @@ pub struct PnpSolution {
     pub cov_pos_m2: Matrix3<f64>,
     /// Covariance of the rotation (a small rotation vector in the camera frame), rad².
     pub cov_rot_rad2: Matrix3<f64>,
-    /// RMS reprojection error of the inliers, pixels.
+    /// RMS reprojection error of the inliers, in their standard errors (pixels at full
+    /// resolution).
     pub rms_px: f64,
 }
 
@@ -385,15 +389,16 @@ fn linearize(
             let (iz, iz2) = (1.0 / p.z, 1.0 / (p.z * p.z));
             let du = Vector3::new(camera.fx * iz, 0.0, -camera.fx * p.x * iz2);
             let dv = Vector3::new(0.0, camera.fy * iz, -camera.fy * p.y * iz2);
+            let w = 1.0 / c.sigma_px;
             let res = [
-                camera.fx * p.x * iz + camera.cx - c.pixel.x,
-                camera.fy * p.y * iz + camera.cy - c.pixel.y,
+                w * (camera.fx * p.x * iz + camera.cx - c.pixel.x),
+                w * (camera.fy * p.y * iz + camera.cy - c.pixel.y),
             ];
             // dp/dθ = −[p]×, dp/dC = −R.
             let skew = p.cross_matrix();
             let row = |g: Vector3<f64>| {
-                let a = -(g.transpose() * skew);
-                let b = -(g.transpose() * r);
+                let a = -(g.transpose() * skew) * w;
+                let b = -(g.transpose() * r) * w;
                 [a[0], a[1], a[2], b[0], b[1], b[2]]
             };
             Some((res, [row(du), row(dv)]))

@@ -44,10 +44,16 @@ pub struct RefineConfig {
     pub gate_sigmas: f64,
     /// …but never closer than this, metres (a coarse sigma can be overconfident).
     pub gate_floor_m: f64,
+    /// Error of the map itself (depth noise, the mapped poses' own error), one sigma, metres;
+    /// added to the PnP covariance, which knows only the pixels' noise. On the kitchen frames
+    /// the refined pose of validation frames is about 2 cm from the ground truth while PnP's
+    /// own sigma is a millimetre or less.
+    pub map_sigma_m: f64,
 }
 
 impl Default for RefineConfig {
-    /// Three retrieved keyframes and two near the coarse pose, 15 inliers, 3 sigmas (≥ 0.25 m).
+    /// Three retrieved keyframes and two near the coarse pose, three near the first PnP pose,
+    /// 15 inliers, 3 sigmas (≥ 0.25 m), a 2 cm map sigma.
     fn default() -> Self {
         RefineConfig {
             retrieved: 3,
@@ -58,6 +64,7 @@ impl Default for RefineConfig {
             min_inliers: 15,
             gate_sigmas: 3.0,
             gate_floor_m: 0.25,
+            map_sigma_m: 0.02,
         }
     }
 }
@@ -129,8 +136,10 @@ pub struct Refinement {
     pub inliers: usize,
     /// Matches PnP was given.
     pub matches: usize,
-    /// Covariance of the refined position, m² (row-major), when refined.
+    /// Covariance of the refined position, m², when refined.
     pub cov_pos_m2: Option<Matrix3<f64>>,
+    /// Covariance of the refined rotation (a small rotation vector), rad², when refined.
+    pub cov_rot_rad2: Option<Matrix3<f64>>,
     /// Why the coarse pose was kept.
     pub fallback: Option<Fallback>,
     /// The keyframes matched against (indices into the map).
@@ -182,6 +191,7 @@ impl KeyframeMap {
             inliers,
             matches,
             cov_pos_m2: None,
+            cov_rot_rad2: None,
             fallback: Some(why),
             candidates,
             timings,
@@ -269,7 +279,10 @@ impl KeyframeMap {
             refined: true,
             inliers,
             matches: corr.len(),
-            cov_pos_m2: Some(sol.cov_pos_m2),
+            cov_pos_m2: Some(
+                sol.cov_pos_m2 + Matrix3::identity() * (cfg.map_sigma_m * cfg.map_sigma_m / 3.0),
+            ),
+            cov_rot_rad2: Some(sol.cov_rot_rad2),
             fallback: None,
             candidates,
             timings,
@@ -291,6 +304,7 @@ impl KeyframeMap {
             corr.push(Correspondence {
                 world: Vector3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])),
                 pixel: Vector2::new(f64::from(kp.x), f64::from(kp.y)),
+                sigma_px: f64::from(self.extract.scale_factor).powi(i32::from(kp.level)),
             });
         }
     }

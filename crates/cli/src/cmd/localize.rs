@@ -44,8 +44,14 @@ pub enum Split {
 #[derive(Args, Debug)]
 pub struct LocalizeArgs {
     /// Checkpoint folder written by `indoorloc train`.
-    #[arg(long, value_name = "MODEL", required_unless_present = "retrieve")]
+    #[arg(long, value_name = "MODEL", required_unless_present_any = ["retrieve", "map"])]
     model: Option<PathBuf>,
+    /// Refine each pose against this keyframe map (`indoorloc map build`): local features
+    /// matched to the keyframes retrieved and those near the coarse pose, PnP + RANSAC. Lines
+    /// gain `refined`, `inliers` (and `fallback`, why the coarse pose was kept). Without
+    /// --model the map alone localizes, from its own retrieval.
+    #[arg(long, value_name = "MAP")]
+    map: Option<PathBuf>,
     /// No network: answer each frame with the pose of the most similar frame of this posed
     /// dataset outside its test part (training and validation under --blocks or its own split; a thumbnail
     /// descriptor, see `map::retrieval`). `sigma_pos_m` / `sigma_rot_deg` are the spread of the
@@ -187,18 +193,61 @@ pub struct PoseFields {
     pub sigma_pos_m: f64,
     /// RMS rotation of the MC passes about their mean, degrees.
     pub sigma_rot_deg: f64,
+    /// 3x3 position covariance, m², row-major: the refinement's (from its Jacobian) when
+    /// refined, else `sigma_pos_m² / 3` on the diagonal.
+    pub cov_pos_m2: [f64; 9],
+    /// With a map: whether the pose comes from it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refined: Option<bool>,
+    /// With a map: PnP inliers.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inliers: Option<usize>,
+    /// With a map: why the coarse pose was kept.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fallback: Option<String>,
 }
 
 impl PoseFields {
     /// The fields of `est`.
     pub fn of(est: &Estimate) -> Self {
+        let v = est.sigma_pos_m * est.sigma_pos_m / 3.0;
         PoseFields {
             position: est.pose.position(),
             quaternion: est.pose.quat_wxyz(),
             pose3: est.pose3.map(|p| [p.x, p.y, p.heading]),
             sigma_pos_m: est.sigma_pos_m,
             sigma_rot_deg: est.sigma_rot_deg,
+            cov_pos_m2: [v, 0.0, 0.0, 0.0, v, 0.0, 0.0, 0.0, v],
+            refined: None,
+            inliers: None,
+            fallback: None,
         }
+    }
+
+    /// The fields of a map refinement of a coarse estimate (`None`: the map alone).
+    pub fn refined(coarse: Option<&Estimate>, r: &map::Refinement) -> Self {
+        let mut out = match (coarse, r.refined) {
+            (Some(est), false) => PoseFields::of(est),
+            _ => {
+                let cov = r.cov_pos_m2.unwrap_or_else(nalgebra::Matrix3::zeros);
+                let rot = r.cov_rot_rad2.unwrap_or_else(nalgebra::Matrix3::zeros);
+                PoseFields {
+                    position: r.pose.position(),
+                    quaternion: r.pose.quat_wxyz(),
+                    pose3: None,
+                    sigma_pos_m: cov.trace().max(0.0).sqrt(),
+                    sigma_rot_deg: rot.trace().max(0.0).sqrt().to_degrees(),
+                    cov_pos_m2: std::array::from_fn(|k| cov[(k / 3, k % 3)]),
+                    refined: None,
+                    inliers: None,
+                    fallback: None,
+                }
+            }
+        };
+        out.refined = Some(r.refined);
+        out.inliers = Some(r.inliers);
+        out.fallback = r.fallback.as_ref().map(ToString::to_string);
+        out
     }
 }
 
@@ -266,10 +315,18 @@ struct Item {
 /// Runs `indoorloc localize`.
 pub fn run(args: &LocalizeArgs) -> Result<()> {
     let (places, sequence) = match (&args.retrieve, &args.model) {
-        (Some(_), _) => (None, None),
         (None, Some(model)) => load_models(args, model)?,
-        (None, None) => bail!("give --model MODEL or --retrieve DATASET"),
+        (None, None) if args.map.is_none() => {
+            bail!("give --model MODEL, --retrieve DATASET or --map MAP")
+        }
+        _ => (None, None),
     };
+    let keyframe_map = args
+        .map
+        .as_deref()
+        .map(map::file::load)
+        .transpose()?;
+    let refine_cfg = map::RefineConfig::default();
     let mut estimator = match &args.retrieve {
         Some(path) => Some(Estimator::Retrieval(retrieval_index(path, args.blocks)?)),
         None => None,
@@ -361,6 +418,19 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
         }
         .transpose()
         .with_context(|| format!("frame {}", item.name))?;
+        let pose = match &keyframe_map {
+            Some(km) => {
+                let coarse = est.as_ref().map(|e| map::Coarse {
+                    pose: e.pose,
+                    sigma_pos_m: e.sigma_pos_m,
+                });
+                let r = km
+                    .refine(&img, coarse.as_ref(), &refine_cfg)
+                    .with_context(|| format!("frame {}", item.name))?;
+                Some(PoseFields::refined(est.as_ref(), &r))
+            }
+            None => est.as_ref().map(PoseFields::of),
+        };
         let (place, told) = match &mut place_tracker {
             Some((loc, tracker)) => {
                 if starts_over {
@@ -380,7 +450,7 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
             frame: item.name,
             seq: item.seq,
             t: item.t,
-            pose: est.as_ref().map(PoseFields::of),
+            pose,
             place: place.as_ref().map(PlaceField::of),
             latency_ms: t0.elapsed().as_secs_f64() * 1e3,
         };

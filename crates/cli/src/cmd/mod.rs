@@ -6,6 +6,7 @@ pub mod demo;
 pub mod eval;
 pub mod explain;
 pub mod localize;
+pub mod map;
 pub mod markers;
 pub mod parse;
 pub mod preprocess;

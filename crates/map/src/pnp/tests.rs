@@ -45,7 +45,11 @@ fn scene(n: usize, noise: f64, outliers: usize, seed: u64) -> Vec<Correspondence
             } else {
                 px + jitter
             };
-            Correspondence { world, pixel }
+            Correspondence {
+                world,
+                pixel,
+                sigma_px: 1.0,
+            }
         })
         .collect()
 }

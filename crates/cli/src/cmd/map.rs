@@ -1,0 +1,136 @@
+//! `indoorloc map build`: the keyframe map of a posed dataset with depth (`map::keyframes`),
+//! which `localize --map` refines poses against.
+
+use crate::output::{print_json, print_text};
+use crate::progress;
+use anyhow::{Result, bail};
+use clap::{Args, Subcommand};
+use data::blocks::BlockSplit;
+use data::posed::{self, SplitPlan};
+use map::BuildConfig;
+use map::depth::DepthModel;
+use serde::Serialize;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `indoorloc map`.
+#[derive(Args, Debug)]
+pub struct MapArgs {
+    #[command(subcommand)]
+    action: Action,
+}
+
+#[derive(Subcommand, Debug)]
+enum Action {
+    /// Build the map of a posed RGB-D dataset (7-Scenes, TUM RGB-D, native with depth).
+    Build(BuildArgs),
+}
+
+/// Arguments of `indoorloc map build`.
+#[derive(Args, Debug)]
+struct BuildArgs {
+    /// A posed dataset with depth, in any layout `data` opens.
+    #[arg(long, value_name = "DATASET")]
+    data: PathBuf,
+    /// The map file to write (atomically).
+    #[arg(long, value_name = "MAP")]
+    out: PathBuf,
+    /// Blocks of consecutive frames, BLOCK:EVERY[:OFFSET], as `train --blocks`: the map holds
+    /// the training and validation blocks, never the held-out ones.
+    #[arg(long, value_name = "BLOCK:EVERY[:OFFSET]")]
+    blocks: Option<BlockSplit>,
+    /// Map every frame, held-out ones included (a map to use, not to evaluate on).
+    #[arg(long, conflicts_with = "blocks")]
+    all: bool,
+    /// A frame becomes a keyframe when the camera has moved this far since the last, metres.
+    #[arg(long, default_value_t = BuildConfig::default().spacing_m)]
+    spacing: f64,
+    /// …or turned this far, degrees.
+    #[arg(long, default_value_t = BuildConfig::default().spacing_deg)]
+    spacing_deg: f64,
+    /// Local features per keyframe.
+    #[arg(long, default_value_t = BuildConfig::default().extract.max_features)]
+    features: usize,
+    /// Print one JSON document instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// What `map build` prints.
+#[derive(Debug, Serialize)]
+struct BuildOutput {
+    map: PathBuf,
+    dataset: String,
+    /// The frames mapped (split description).
+    frames: String,
+    keyframes: usize,
+    points: usize,
+    bytes: u64,
+    seconds: f64,
+}
+
+/// Runs `indoorloc map`.
+pub fn run(args: &MapArgs) -> Result<()> {
+    match &args.action {
+        Action::Build(b) => build(b),
+    }
+}
+
+fn build(args: &BuildArgs) -> Result<()> {
+    let t = Instant::now();
+    if !(args.spacing >= 0.0 && args.spacing_deg >= 0.0) || args.features == 0 {
+        bail!("--spacing and --spacing-deg must be ≥ 0 and --features ≥ 1");
+    }
+    let ds = posed::open(&args.data)?;
+    let camera = ds.require_camera()?;
+    let plan = args.blocks.map_or(SplitPlan::Auto, SplitPlan::Blocks);
+    let (images, frames): (Vec<_>, String) = if args.all {
+        (ds.images.iter().collect(), "all frames".into())
+    } else {
+        (
+            ds.mapped(plan),
+            format!("training and validation part: {}", ds.describe_split(plan)),
+        )
+    };
+    if images.is_empty() {
+        bail!("{}: no frames to map ({frames})", args.data.display());
+    }
+    let mut cfg = BuildConfig {
+        spacing_m: args.spacing,
+        spacing_deg: args.spacing_deg,
+        ..BuildConfig::default()
+    };
+    cfg.extract.max_features = args.features;
+    let keyframes = map::keyframes::select_keyframes(&images, &cfg).len();
+    let pb = progress::bar(keyframes as u64, "keyframes");
+    if args.json {
+        pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let depth = DepthModel::for_dataset(&ds, &camera);
+    let km = map::keyframes::build(&images, &camera, &depth, &cfg, &|| pb.inc(1))?;
+    pb.finish_and_clear();
+    map::file::save(&km, &args.out)?;
+    let out = BuildOutput {
+        map: args.out.clone(),
+        dataset: ds.name(),
+        frames,
+        keyframes: km.len(),
+        points: km.points(),
+        bytes: std::fs::metadata(&args.out)?.len(),
+        seconds: t.elapsed().as_secs_f64(),
+    };
+    if args.json {
+        print_json(&out)
+    } else {
+        print_text(&format!(
+            "map {}: {} keyframes, {} points, {:.1} MB, {:.1} s ({}, {})\n",
+            out.map.display(),
+            out.keyframes,
+            out.points,
+            out.bytes as f64 / 1e6,
+            out.seconds,
+            out.dataset,
+            out.frames
+        ))
+    }
+}
