@@ -321,11 +321,7 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
         }
         _ => (None, None),
     };
-    let keyframe_map = args
-        .map
-        .as_deref()
-        .map(map::file::load)
-        .transpose()?;
+    let keyframe_map = args.map.as_deref().map(map::file::load).transpose()?;
     let refine_cfg = map::RefineConfig::default();
     let mut estimator = match &args.retrieve {
         Some(path) => Some(Estimator::Retrieval(retrieval_index(path, args.blocks)?)),
