@@ -197,3 +197,56 @@ fn study_real_reports_every_row_on_kitchen_frames() -> TestResult {
     assert!(out.join("report.html").is_file());
     Ok(())
 }
+
+/// `map build` then `localize --map` (no network: the map's own retrieval starts each frame) on
+/// held-out kitchen frames between mapped ones: every frame refined, centimetres by `eval`; a
+/// damaged map exits 2 naming the file.
+#[test]
+fn map_build_and_localize_with_the_map_refine_held_out_kitchen_frames() -> TestResult {
+    let kitchen = shared_data("7scenes_redkitchen_seq01");
+    let dir = tempfile::tempdir()?;
+    let data = kitchen_excerpt(&kitchen, dir.path(), 100)?;
+    let d = data.to_str().ok_or("path")?;
+    let map = dir.path().join("kitchen.map");
+    let m = map.to_str().ok_or("path")?;
+    // Blocks of 20, the second of every four held out: frames 20-39.
+    let built = json_of(&indoorloc(&[
+        "map", "build", "--data", d, "--blocks", "20:4:1", "--out", m, "--json",
+    ])?)?;
+    assert!(
+        built["keyframes"].as_u64().ok_or("keyframes")? >= 10,
+        "{built}"
+    );
+    assert!(built["points"].as_u64().ok_or("points")? > 5000, "{built}");
+    let est = dir.path().join("refined.jsonl");
+    let frames = localize(
+        &["--map", m, d, "--split", "test", "--blocks", "20:4:1"],
+        &est,
+    )?;
+    assert_eq!(frames.len(), 20);
+    for line in std::fs::read_to_string(&est)?.lines() {
+        let v: serde_json::Value = serde_json::from_str(line)?;
+        assert_eq!(v["refined"], true, "{v}");
+        assert_eq!(v["cov_pos_m2"].as_array().ok_or("cov")?.len(), 9);
+    }
+    let est_s = est.to_str().ok_or("path")?;
+    let e = json_of(&indoorloc(&["eval", "--gt", d, "--est", est_s, "--json"])?)?;
+    let (p, r) = (
+        e["median_pos_m"].as_f64().ok_or("median")?,
+        e["median_rot_deg"].as_f64().ok_or("median")?,
+    );
+    assert!(p < 0.03 && r < 1.5, "refined {p:.3} m / {r:.2}°");
+
+    let bytes = std::fs::read(&map)?;
+    std::fs::write(&map, &bytes[..bytes.len() - 10])?;
+    let run = indoorloc(&[
+        "localize", "--map", m, d, "--split", "test", "--blocks", "20:4:1",
+    ])?;
+    assert_eq!(run.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        err.contains("kitchen.map") && err.lines().count() == 1,
+        "{err}"
+    );
+    Ok(())
+}
