@@ -178,7 +178,14 @@ fn study_real_reports_every_row_on_kitchen_frames() -> TestResult {
         .map(|r| r["method"].as_str().unwrap_or(""))
         .collect();
     let weights = learn::pretrained::locate(&learn::pretrained::MOBILENET_V2).is_ok();
-    let mut expected = vec!["mean-pose", "retrieval", "network", "network+sequence"];
+    let mut expected = vec![
+        "mean-pose",
+        "retrieval",
+        "network",
+        "network+sequence",
+        "map",
+        "network+map",
+    ];
     if weights {
         expected.insert(2, "retrieval-features");
     }

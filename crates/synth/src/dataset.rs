@@ -558,7 +558,9 @@ pub fn encode_depth_mm(depth: &[f32], width: u32, height: u32) -> Result<Vec<u8>
         } else {
             0
         };
-        raw.extend_from_slice(&mm.to_be_bytes()); // PNG stores 16-bit samples big-endian
+        // Native order: the `image` encoder turns 16-bit samples into PNG's big-endian itself
+        // (bytes handed to it already big-endian came out swapped, 802 mm read as 8707).
+        raw.extend_from_slice(&mm.to_ne_bytes());
     }
     encode(width, height, &raw, image::ExtendedColorType::L16)
 }
@@ -645,4 +647,19 @@ fn copy(from: &Path, to: &Path) -> Result<()> {
         source,
     })?;
     write_png(to, &bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn depth_pngs_read_back_in_millimetres() {
+        let png = encode_depth_mm(&[0.802, 3.769, 0.0, f32::NAN, 70.0, 1.0], 3, 2).unwrap();
+        let img = image::load_from_memory(&png).unwrap();
+        let image::DynamicImage::ImageLuma16(d) = img else {
+            panic!("not 16-bit grey");
+        };
+        assert_eq!(d.as_raw(), &[802, 3769, 0, 0, 65535, 1000]);
+    }
 }

@@ -6,7 +6,10 @@
 //! backbone's pooled features when the network has one), the network trained with the
 //! real-photo recipe ([`learn::TrainConfig::for_real_photos`]: a frozen ImageNet MobileNetV2
 //! when its weights are in the cache, else the small network from scratch), and that network
-//! with the CNN+LSTM sequence model over the held-out runs of consecutive frames. The split is
+//! with the CNN+LSTM sequence model over the held-out runs of consecutive frames; and, where
+//! every mapped frame has depth, the keyframe map (`map`: local features lifted to 3-D, PnP)
+//! alone from its own retrieval and refining the network's poses (the network's sigma gates
+//! the refinement). The split is
 //! the dataset's own, else blocks (`--blocks`); training chooses its epoch on validation
 //! blocks cut from the training part, never on the test frames.
 
@@ -22,7 +25,9 @@ use geom::metrics::{Stats, position_error, rotation_error_deg};
 use image::DynamicImage;
 use learn::seq::{SeqConfig, SeqLocalizer, SeqMeta};
 use learn::{Estimate, Localizer, TrainConfig};
+use map::depth::DepthModel;
 use map::retrieval::{Keyframe, RetrievalIndex};
+use map::{BuildConfig, Coarse, KeyframeMap, RefineConfig};
 use rayon::prelude::*;
 use report::{HtmlReport, Series, Table, Track};
 use serde::Serialize;
@@ -63,7 +68,8 @@ pub struct RealArgs {
 /// One row of the table.
 #[derive(Debug, Serialize)]
 struct Row {
-    /// `mean-pose`, `retrieval`, `network` or `network+sequence`.
+    /// `mean-pose`, `retrieval`, `retrieval-features`, `network`, `network+sequence`, `map` or
+    /// `network+map`.
     method: String,
     median_pos_m: f64,
     median_rot_deg: f64,
@@ -133,7 +139,7 @@ pub fn run(args: &RealArgs) -> Result<()> {
         .collect();
 
     say(&format!(
-        "1/5 decoding {} test frames ({})",
+        "1/6 decoding {} test frames ({})",
         test_index.len(),
         ds.describe_split(plan)
     ));
@@ -142,12 +148,12 @@ pub fn run(args: &RealArgs) -> Result<()> {
         .map(|&i| data::frames::decode_image(&ds.images[i].image))
         .collect::<std::result::Result<_, _>>()?;
 
-    say("2/5 baselines: mean training pose, image retrieval");
+    say("2/6 baselines: mean training pose, image retrieval");
     let mut methods = vec![mean_pose(&mapped, test_index.len())?];
     let (retrieval, nearest) = retrieval(&mapped, &test_images)?;
     methods.push(retrieval);
 
-    say("3/5 the network (real-photo recipe)");
+    say("3/6 the network (real-photo recipe)");
     let model = args.out.join("model");
     let mut cfg = TrainConfig::for_real_photos(&args.data, &model);
     cfg.blocks = args.blocks;
@@ -181,7 +187,7 @@ pub fn run(args: &RealArgs) -> Result<()> {
         ms_per_frame: 1e3 * t.elapsed().as_secs_f64() / views.len() as f64,
     });
 
-    say("4/5 the sequence model (CNN+LSTM) over runs of consecutive frames");
+    say("4/6 the sequence model (CNN+LSTM) over runs of consecutive frames");
     let window = args.window.unwrap_or(if args.quick { 10 } else { 20 });
     let mut seq_cfg = SeqConfig::new(&args.data, &model);
     seq_cfg.window = window;
@@ -208,7 +214,21 @@ pub fn run(args: &RealArgs) -> Result<()> {
         ms_per_frame: 1e3 * t.elapsed().as_secs_f64() / views.len() as f64,
     });
 
-    say("5/5 report");
+    say("5/6 the keyframe map (local features + PnP): alone, and refining the network's poses");
+    if let Some((km, build_s)) = keyframe_map(&ds, &mapped, !args.json)? {
+        methods.push(refined("map", &km, &test_images, None, build_s)?);
+        methods.push(refined(
+            "network+map",
+            &km,
+            &test_images,
+            Some(&single),
+            trained_s + build_s,
+        )?);
+    } else {
+        say("    (no depth for every mapped frame: no map rows)");
+    }
+
+    say("6/6 report");
     let rows = methods
         .iter()
         .map(|m| row(m, &truth))
@@ -346,6 +366,62 @@ fn feature_retrieval(
         train_s,
         ms_per_frame: 1e3 * t.elapsed().as_secs_f64() / test_views.len().max(1) as f64,
     }))
+}
+
+/// The keyframe map of the mapped frames and its build time, when every one has depth.
+fn keyframe_map(
+    ds: &posed::PosedDataset,
+    mapped: &[&PosedImage],
+    show: bool,
+) -> Result<Option<(KeyframeMap, f64)>> {
+    if mapped.iter().any(|i| i.depth.is_none()) {
+        return Ok(None);
+    }
+    let t = Instant::now();
+    let camera = ds.require_camera()?;
+    let cfg = BuildConfig::default();
+    let pb = crate::progress::bar(
+        map::keyframes::select_keyframes(mapped, &cfg).len() as u64,
+        "keyframes",
+    );
+    if !show {
+        pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let depth = DepthModel::for_dataset(ds, &camera);
+    let km = map::keyframes::build(mapped, &camera, &depth, &cfg, &|| pb.inc(1))?;
+    pb.finish_and_clear();
+    Ok(Some((km, t.elapsed().as_secs_f64())))
+}
+
+/// The map's refinement of each test frame, from the network's estimate (its pose and sigma)
+/// when given, else from the map's own retrieval.
+fn refined(
+    name: &str,
+    km: &KeyframeMap,
+    test_images: &[DynamicImage],
+    coarse: Option<&[Estimate]>,
+    train_s: f64,
+) -> Result<Method> {
+    let cfg = RefineConfig::default();
+    let t = Instant::now();
+    // One frame after another, as a live query runs.
+    let poses = test_images
+        .iter()
+        .enumerate()
+        .map(|(i, img)| {
+            let c = coarse.map(|c| Coarse {
+                pose: c[i].pose,
+                sigma_pos_m: c[i].sigma_pos_m,
+            });
+            Ok(km.refine(img, c.as_ref(), &cfg)?.pose)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Method {
+        name: name.into(),
+        poses,
+        train_s,
+        ms_per_frame: 1e3 * t.elapsed().as_secs_f64() / test_images.len().max(1) as f64,
+    })
 }
 
 /// Position and rotation errors of `poses` against `truth`.
