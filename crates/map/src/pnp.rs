@@ -43,6 +43,20 @@ pub struct PnpConfig {
     pub confidence: f64,
     /// Seed of the sampling (a fixed seed makes a query's answer reproducible).
     pub seed: u64,
+    /// Where the camera is known to be, roughly: hypotheses whose centre lies outside this
+    /// ball are not scored. In a building whose parts look alike (a corridor's repeated bays,
+    /// tiled textures), a pose one repetition away fits the matches almost as well as the true
+    /// one; a coarse pose better than half a repetition picks the right one.
+    pub prior: Option<Prior>,
+}
+
+/// A ball the camera centre lies in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prior {
+    /// Its centre, world metres.
+    pub centre: Vector3<f64>,
+    /// Its radius, metres.
+    pub radius_m: f64,
 }
 
 impl Default for PnpConfig {
@@ -53,6 +67,7 @@ impl Default for PnpConfig {
             max_iterations: 2000,
             confidence: 0.999,
             seed: 0x5eed,
+            prior: None,
         }
     }
 }
@@ -73,6 +88,11 @@ impl WorldToCamera {
             self.r.transpose(),
         ));
         Pose::new(rot, -(self.r.transpose() * self.t))
+    }
+
+    /// The camera centre in the world.
+    pub fn centre(&self) -> Vector3<f64> {
+        -(self.r.transpose() * self.t)
     }
 
     /// The world-to-camera transform of a camera-to-world pose.
@@ -143,6 +163,11 @@ pub fn solve(camera: &Camera, corr: &[Correspondence], cfg: &PnpConfig) -> Optio
         }
         let sample = [i, j, k];
         for hyp in p3p(sample.map(|s| bearings[s]), sample.map(|s| corr[s].world)) {
+            if let Some(p) = &cfg.prior {
+                if (hyp.centre() - p.centre).norm() > p.radius_m {
+                    continue;
+                }
+            }
             let bar = best.map_or(0, |b| b.1);
             let count = count_inliers(camera, corr, &hyp, thr2, bar);
             if count > bar {

@@ -6,7 +6,7 @@
 //! wall, a dark frame or a frame from elsewhere must not throw a tracker off.
 
 use crate::keyframes::{KeyframeMap, gray_of};
-use crate::pnp::{self, Correspondence, PnpConfig};
+use crate::pnp::{self, Correspondence, PnpConfig, Prior};
 use crate::{MapError, Result, retrieval};
 use features::MatchConfig;
 use geom::Pose;
@@ -66,6 +66,13 @@ impl Default for RefineConfig {
             gate_floor_m: 0.25,
             map_sigma_m: 0.02,
         }
+    }
+}
+
+impl RefineConfig {
+    /// How far from a coarse pose a refined one may lie, metres.
+    pub fn gate_radius(&self, coarse: &Coarse) -> f64 {
+        (self.gate_sigmas * coarse.sigma_pos_m).max(self.gate_floor_m)
     }
 }
 
@@ -217,12 +224,9 @@ impl KeyframeMap {
             ));
         }
         let t2 = Instant::now();
-        let mut solution = pnp::solve(&camera, &corr, &cfg.pnp);
+        let mut solved = solve_near(&camera, &corr, coarse, cfg);
         timings.pnp_ms = ms_since(t2);
-        if let Some(first) = solution
-            .as_ref()
-            .filter(|s| s.inliers.len() >= cfg.min_inliers)
-        {
+        if let Solved::Pose(first) = &solved {
             let more: Vec<usize> = self
                 .nearest_keyframes(&first.pose.to_pose(), cfg.near_refined)
                 .into_iter()
@@ -236,32 +240,34 @@ impl KeyframeMap {
                 candidates.extend(more);
                 timings.matching_ms += ms_since(t3);
                 let t4 = Instant::now();
-                if let Some(second) = pnp::solve(&camera, &corr, &cfg.pnp) {
-                    if second.inliers.len() >= first.inliers.len() {
-                        solution = Some(second);
+                let first_inliers = first.inliers.len();
+                if let Solved::Pose(second) = solve_near(&camera, &corr, coarse, cfg) {
+                    if second.inliers.len() >= first_inliers {
+                        solved = Solved::Pose(second);
                     }
                 }
                 timings.pnp_ms += ms_since(t4);
             }
         }
-        let inliers = solution.as_ref().map_or(0, |s| s.inliers.len());
-        let Some(sol) = solution.filter(|s| s.inliers.len() >= cfg.min_inliers) else {
-            return Ok(fallback(
-                Fallback::TooFewInliers {
+        let sol = match solved {
+            Solved::Pose(sol) => sol,
+            Solved::Weak { inliers } => {
+                return Ok(fallback(
+                    Fallback::TooFewInliers {
+                        inliers,
+                        needed: cfg.min_inliers,
+                    },
                     inliers,
-                    needed: cfg.min_inliers,
-                },
+                    corr.len(),
+                    candidates,
+                    timings,
+                ));
+            }
+            Solved::Contradicts {
+                distance_m,
+                allowed_m,
                 inliers,
-                corr.len(),
-                candidates,
-                timings,
-            ));
-        };
-        let pose = sol.pose.to_pose();
-        if let Some(c) = coarse {
-            let distance_m = geom::metrics::position_error(&c.pose, &pose);
-            let allowed_m = (cfg.gate_sigmas * c.sigma_pos_m).max(cfg.gate_floor_m);
-            if distance_m > allowed_m {
+            } => {
                 return Ok(fallback(
                     Fallback::FarFromCoarse {
                         distance_m,
@@ -273,7 +279,8 @@ impl KeyframeMap {
                     timings,
                 ));
             }
-        }
+        };
+        let (pose, inliers) = (sol.pose.to_pose(), sol.inliers.len());
         Ok(Refinement {
             pose,
             refined: true,
@@ -321,6 +328,78 @@ impl KeyframeMap {
             .collect();
         near.sort_by(|a, b| a.0.total_cmp(&b.0));
         near.into_iter().take(k).map(|(_, i)| i).collect()
+    }
+}
+
+/// What PnP made of a query's matches.
+enum Solved {
+    /// A pose with enough inliers, within the coarse pose's gate when there is one.
+    Pose(pnp::PnpSolution),
+    /// Too few inliers anywhere.
+    Weak {
+        /// Inliers of the best pose.
+        inliers: usize,
+    },
+    /// A pose with many more inliers than any within the gate lies outside it.
+    Contradicts {
+        distance_m: f64,
+        allowed_m: f64,
+        inliers: usize,
+    },
+}
+
+/// A pose near the coarse one is taken over a better-fitting one farther away only when it
+/// explains at least this share of the other's inliers (a repetition of the building that
+/// fits as well), not when the coarse pose is simply wrong.
+const NEAR_SHARE: f64 = 0.5;
+
+/// PnP on the matches: free, then, when the free pose lies outside the coarse pose's gate,
+/// again among poses within it (see [`crate::pnp::PnpConfig::prior`]).
+fn solve_near(
+    camera: &geom::Camera,
+    corr: &[Correspondence],
+    coarse: Option<&Coarse>,
+    cfg: &RefineConfig,
+) -> Solved {
+    let free = pnp::solve(camera, corr, &cfg.pnp);
+    let free_inliers = free.as_ref().map_or(0, |s| s.inliers.len());
+    let Some(c) = coarse else {
+        return match free {
+            Some(s) if free_inliers >= cfg.min_inliers => Solved::Pose(s),
+            _ => Solved::Weak {
+                inliers: free_inliers,
+            },
+        };
+    };
+    let centre = Vector3::from(c.pose.position());
+    let allowed_m = cfg.gate_radius(c);
+    let distance = |s: &pnp::PnpSolution| (s.pose.centre() - centre).norm();
+    if let Some(s) = free.as_ref() {
+        if free_inliers >= cfg.min_inliers && distance(s) <= allowed_m {
+            return Solved::Pose(free.expect("checked"));
+        }
+    }
+    let near_cfg = PnpConfig {
+        prior: Some(Prior {
+            centre,
+            radius_m: allowed_m,
+        }),
+        ..cfg.pnp
+    };
+    let near = pnp::solve(camera, corr, &near_cfg).filter(|s| distance(s) <= allowed_m);
+    let near_inliers = near.as_ref().map_or(0, |s| s.inliers.len());
+    if near_inliers >= cfg.min_inliers && near_inliers as f64 >= NEAR_SHARE * free_inliers as f64 {
+        return Solved::Pose(near.expect("checked"));
+    }
+    match free {
+        Some(s) if free_inliers >= cfg.min_inliers => Solved::Contradicts {
+            distance_m: distance(&s),
+            allowed_m,
+            inliers: free_inliers,
+        },
+        _ => Solved::Weak {
+            inliers: near_inliers.max(free_inliers),
+        },
     }
 }
 

@@ -60,8 +60,8 @@ fn frames_between_mapped_frames_refine_to_centimetres_and_strangers_fall_back() 
         assert!(*p < 0.03 && *r < 1.0, "query {i}: {p:.3} m, {r:.2}°");
     }
 
-    // A coarse pose 1 m away with a 10 cm sigma: the refined answer contradicts it, so the
-    // coarse pose is kept, and said so.
+    // A coarse pose 1 m away with a 10 cm sigma: no pose near it fits the matches (PnP only
+    // scores poses within the coarse pose's gate), so the coarse pose is kept, and said so.
     let truth = ds.images[50].frame.pose;
     let p = truth.position();
     let off = Pose::new(truth.rotation, [p[0] + 1.0, p[1], p[2]].into());

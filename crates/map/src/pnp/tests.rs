@@ -113,3 +113,27 @@ fn covariance_shrinks_with_more_points() {
     let many = solve(&camera(), &scene(600, 1.0, 0, 5), &PnpConfig::default()).unwrap();
     assert!(many.cov_pos_m2.trace() < few.cov_pos_m2.trace() / 5.0);
 }
+
+#[test]
+fn a_prior_keeps_hypotheses_near_the_coarse_centre() {
+    let truth = true_pose();
+    let corr = scene(200, 0.5, 0, 6);
+    let c = Vector3::from(truth.position());
+    let near = PnpConfig {
+        prior: Some(Prior {
+            centre: c + Vector3::new(0.3, 0.0, 0.0),
+            radius_m: 0.5,
+        }),
+        ..PnpConfig::default()
+    };
+    let sol = solve(&camera(), &corr, &near).expect("the true pose is inside the ball");
+    assert!(geom::metrics::position_error(&truth, &sol.pose.to_pose()) < 0.01);
+    let far = PnpConfig {
+        prior: Some(Prior {
+            centre: c + Vector3::new(3.0, 0.0, 0.0),
+            radius_m: 0.5,
+        }),
+        ..PnpConfig::default()
+    };
+    assert!(solve(&camera(), &corr, &far).is_none());
+}
