@@ -334,7 +334,7 @@ impl KeyframeMap {
 /// What PnP made of a query's matches.
 enum Solved {
     /// A pose with enough inliers, within the coarse pose's gate when there is one.
-    Pose(pnp::PnpSolution),
+    Pose(Box<pnp::PnpSolution>),
     /// Too few inliers anywhere.
     Weak {
         /// Inliers of the best pose.
@@ -365,7 +365,7 @@ fn solve_near(
     let free_inliers = free.as_ref().map_or(0, |s| s.inliers.len());
     let Some(c) = coarse else {
         return match free {
-            Some(s) if free_inliers >= cfg.min_inliers => Solved::Pose(s),
+            Some(s) if free_inliers >= cfg.min_inliers => Solved::Pose(Box::new(s)),
             _ => Solved::Weak {
                 inliers: free_inliers,
             },
@@ -376,7 +376,7 @@ fn solve_near(
     let distance = |s: &pnp::PnpSolution| (s.pose.centre() - centre).norm();
     if let Some(s) = free.as_ref() {
         if free_inliers >= cfg.min_inliers && distance(s) <= allowed_m {
-            return Solved::Pose(free.expect("checked"));
+            return Solved::Pose(Box::new(free.expect("checked")));
         }
     }
     let near_cfg = PnpConfig {
@@ -389,7 +389,7 @@ fn solve_near(
     let near = pnp::solve(camera, corr, &near_cfg).filter(|s| distance(s) <= allowed_m);
     let near_inliers = near.as_ref().map_or(0, |s| s.inliers.len());
     if near_inliers >= cfg.min_inliers && near_inliers as f64 >= NEAR_SHARE * free_inliers as f64 {
-        return Solved::Pose(near.expect("checked"));
+        return Solved::Pose(Box::new(near.expect("checked")));
     }
     match free {
         Some(s) if free_inliers >= cfg.min_inliers => Solved::Contradicts {
