@@ -11,6 +11,7 @@
 //! demo continues where it stopped.
 
 mod page;
+pub mod refine;
 pub(crate) mod scene;
 
 use crate::cmd::train::train_with_progress;
@@ -137,6 +138,10 @@ pub struct DemoArgs {
     /// the uncertainty.
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set, value_name = "BOOL")]
     tta: bool,
+    /// Refine the test walk against a keyframe map of the zone (survey walks rendered at
+    /// 640x480 with depth; forward camera only).
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set, value_name = "BOOL")]
+    map: bool,
     /// Print one JSON document instead of a table.
     #[arg(long)]
     json: bool,
@@ -334,6 +339,9 @@ pub struct DemoOutput {
     pub epochs: [usize; 2],
     /// The walk with scene cuts through the temporal filter.
     pub cuts: CutSummary,
+    /// The test walk refined against the keyframe map (forward camera, `--map true`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refined: Option<refine::RefinedFigures>,
 }
 
 /// Frames after a cut (the cut frame and [`CUT_WINDOW`] more) count as "after a cut".
@@ -359,6 +367,8 @@ pub struct StageSeconds {
     pub train: f64,
     /// Localizing the test walk.
     pub localize: f64,
+    /// Rendering the map's survey, building the map and refining the test walk.
+    pub refine: f64,
     /// Evaluation and report.
     pub report: f64,
     /// Everything.
@@ -414,7 +424,7 @@ pub(crate) fn render_and_train(args: &DemoArgs, say: &dyn Fn(&str)) -> Result<Pr
     let setup = setup(args, &data_dir, &model_dir);
     let mut seconds = StageSeconds::default();
     say(&format!(
-        "1/4 rendering {} frames of building {} storey {} ({} camera, {}x{}) into {}",
+        "1/5 rendering {} frames of building {} storey {} ({} camera, {}x{}) into {}",
         setup.scene.total_frames(),
         setup.scene.building,
         setup.scene.storey,
@@ -432,7 +442,7 @@ pub(crate) fn render_and_train(args: &DemoArgs, say: &dyn Fn(&str)) -> Result<Pr
         say("    (reusing the frames rendered by an earlier run)");
     }
 
-    say(&format!("2/4 training into {}", model_dir.display()));
+    say(&format!("2/5 training into {}", model_dir.display()));
     let t = Instant::now();
     let summary = train_with_progress(&setup.train, !args.json)?;
     seconds.train = t.elapsed().as_secs_f64();
@@ -464,7 +474,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         mut seconds,
     } = render_and_train(args, &say)?;
 
-    say("3/4 localizing the held-out test walk, and a walk with scene cuts through the filter");
+    say("3/5 localizing the held-out test walk, and a walk with scene cuts through the filter");
     let t = Instant::now();
     let ds = NativeDataset::open(&data_dir)?;
     let results = localize_test(
@@ -484,9 +494,19 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     )?;
     seconds.localize = t.elapsed().as_secs_f64();
 
-    say("4/4 evaluating and writing the report");
-    let t = Instant::now();
     let task = summary_task(&setup);
+    let refined = if args.map && task == Task::Pose6 {
+        say("4/5 refining the test walk against a keyframe map of the zone (640x480)");
+        let t = Instant::now();
+        let r = refine::refine_test(&setup.scene, &args.out, &results, !args.json)?;
+        seconds.refine = t.elapsed().as_secs_f64();
+        Some(r)
+    } else {
+        None
+    };
+
+    say("5/5 evaluating and writing the report");
+    let t = Instant::now();
     let uncertainty = UncertaintyFigures::of(&results)?;
     let eval = Evaluation::of(&results, task)?;
     let report_dir = args.out.join("report");
@@ -504,6 +524,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             summary: &summary,
             cuts: &cuts,
             model_dir: &model_dir,
+            refined: refined.as_ref(),
         },
     )?;
     seconds.report = t.elapsed().as_secs_f64();
@@ -527,6 +548,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             median_pos_m_after_cut_gold: cuts.after_cut("gold"),
             median_pos_m_after_cut_detected: cuts.after_cut("detected"),
         },
+        refined: refined.map(|r| r.0),
     };
     if args.json {
         print_json(&out)
@@ -730,9 +752,21 @@ fn human_text(o: &DemoOutput, task: Task) -> String {
         m(o.cuts.median_pos_m_after_cut_gold),
         m(o.cuts.median_pos_m_after_cut_detected)
     );
+    if let Some(r) = &o.refined {
+        s += &format!(
+            "refined     {:.4} m, {:.3}° median against the keyframe map ({:.0} % refined, {:.1} % within \
+             (5 cm, 1°); {} keyframes; {:.1} ms per 640x480 query)\n",
+            r.median_pos_m,
+            r.median_rot_deg,
+            100.0 * r.refined,
+            100.0 * r.acc_5cm_1deg,
+            r.keyframes,
+            r.ms_per_frame
+        );
+    }
     s += &format!(
         "uncertainty R = {:.2}; top 10 % sigma: median error {:.3} m vs {:.3} m for the rest\n\
-         time        {:.0} s (render {:.0}, train {:.0}, localize {:.1}, report {:.1})\n\
+         time        {:.0} s (render {:.0}, train {:.0}, localize {:.1}, map {:.1}, report {:.1})\n\
          report      {}\n",
         o.uncertainty.pearson_r,
         o.uncertainty.top10_median_m,
@@ -741,6 +775,7 @@ fn human_text(o: &DemoOutput, task: Task) -> String {
         o.seconds.render,
         o.seconds.train,
         o.seconds.localize,
+        o.seconds.refine,
         o.seconds.report,
         o.report.display()
     );

@@ -34,6 +34,8 @@ pub struct PageInput<'a> {
     pub cuts: &'a crate::cmd::study::cuts::CutFigures,
     /// The trained model (for the Grad-CAM maps).
     pub model_dir: &'a Path,
+    /// The test walk refined against the keyframe map, when it was.
+    pub refined: Option<&'a (super::refine::RefinedFigures, Vec<geom::Pose>)>,
 }
 
 /// Writes `report.html` and the figures into `dir`; returns the page's path.
@@ -69,8 +71,59 @@ pub fn write(dir: &Path, input: &PageInput) -> Result<PathBuf> {
     ]);
     page.table(&input.eval.table);
 
-    let pos = vec![Series::new("test walk", errors(r, |f| f.pos_err_m))];
-    let rot = vec![Series::new("test walk", errors(r, |f| f.rot_err_deg))];
+    let mut pos = vec![Series::new("test walk", errors(r, |f| f.pos_err_m))];
+    let mut rot = vec![Series::new("test walk", errors(r, |f| f.rot_err_deg))];
+    if let Some((fig, poses)) = input.refined {
+        let mut t = report::Table::new(
+            "Refined against the keyframe map (local features + PnP, from the network's pose)",
+            ["metric", "value"],
+        );
+        for (k, v) in [
+            ("frames refined", format!("{:.1} %", 100.0 * fig.refined)),
+            (
+                "median position error",
+                format!("{:.4} m", fig.median_pos_m),
+            ),
+            (
+                "median rotation error",
+                format!("{:.3}°", fig.median_rot_deg),
+            ),
+            ("mean position error", format!("{:.3} m", fig.mean_pos_m)),
+            (
+                "accuracy (0.05 m, 1°)",
+                format!("{:.1} %", 100.0 * fig.acc_5cm_1deg),
+            ),
+            (
+                "accuracy (0.25 m, 2°)",
+                format!("{:.1} %", 100.0 * fig.acc_25cm_2deg),
+            ),
+            (
+                "map",
+                format!(
+                    "{} keyframes, {} points, built in {:.1} s",
+                    fig.keyframes, fig.points, fig.build_s
+                ),
+            ),
+            ("ms per query (640x480)", format!("{:.1}", fig.ms_per_frame)),
+        ] {
+            t.push_row([k.to_string(), v]);
+        }
+        page.table(&t);
+        let err = |f: &dyn Fn(&FrameResult, &geom::Pose) -> f64| {
+            r.iter()
+                .zip(poses)
+                .map(|(x, p)| f(x, p))
+                .collect::<Vec<f64>>()
+        };
+        pos.push(Series::new(
+            "refined",
+            err(&|x, p| geom::metrics::position_error(&x.truth, p)),
+        ));
+        rot.push(Series::new(
+            "refined",
+            err(&|x, p| geom::metrics::rotation_error_deg(&x.truth, p)),
+        ));
+    }
     let cdf: Figure = ErrorCdf {
         title: "Cumulative error distribution".into(),
         position_m: pos,

@@ -94,6 +94,21 @@ fn is_zero(n: &u64) -> bool {
 /// plan uses itself (training walks below 900, validation 900, test 901, cut walks 902).
 pub const SEQUENCE_WALK_OFFSET: u64 = 1000;
 
+/// [`ScenePlan::walk_offset`] of the map's survey walks.
+pub const MAP_WALK_OFFSET: u64 = 2000;
+/// Image size of the map and of the refinement's queries: local features need the detail.
+pub const MAP_WIDTH: u32 = 640;
+/// See [`MAP_WIDTH`].
+pub const MAP_HEIGHT: u32 = 480;
+/// Survey walks of the map.
+pub const MAP_WALKS: usize = 2;
+/// Frames per survey walk.
+pub const MAP_FRAMES_PER_WALK: usize = 400;
+/// Frame rate of the survey walks: a frame about every 0.6 m of walking.
+pub const MAP_FPS: f64 = 2.0;
+/// Frames of the map dataset's validation walk (mapped too).
+pub const MAP_VAL_FRAMES: usize = 20;
+
 /// Walks of the sequence model's training data per walk of the network's.
 pub const SEQUENCE_WALKS_PER_WALK: usize = 3;
 
@@ -178,6 +193,28 @@ impl ScenePlan {
             frames_per_walk: self.frames_per_walk.div_ceil(split),
             walk_offset: SEQUENCE_WALK_OFFSET,
             test_frames: 0,
+            ..self.clone()
+        }
+    }
+
+    /// The survey the demo's keyframe map is built from, and the test walk again at the
+    /// map's resolution: walks of their own through the same zone under normal light at
+    /// [`MAP_FPS`], 640x480 with depth, and the held-out test walk (the same poses) at
+    /// 640x480 for the refinement's queries. The network keeps its 160x120 frames.
+    pub fn for_map(&self) -> ScenePlan {
+        ScenePlan {
+            width: MAP_WIDTH,
+            height: MAP_HEIGHT,
+            train_variants: vec![normal()],
+            walks_per_variant: MAP_WALKS,
+            frames_per_walk: MAP_FRAMES_PER_WALK,
+            train_fps: Some(MAP_FPS),
+            walk_offset: MAP_WALK_OFFSET,
+            val_frames: MAP_VAL_FRAMES,
+            train_mode: textured(),
+            random_materials: false,
+            random_lighting: false,
+            depth: true,
             ..self.clone()
         }
     }
