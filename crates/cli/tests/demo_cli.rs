@@ -18,6 +18,8 @@ fn demo_runs_end_to_end_and_resumes() -> TestResult {
             "4",
             "--cut-segments",
             "2",
+            "--map-frames",
+            "60",
             "--json",
         ]);
         json_of(&indoorloc(&args)?)
@@ -43,9 +45,19 @@ fn demo_runs_end_to_end_and_resumes() -> TestResult {
         "median position error",
         "Scene cuts",
         "What the network looks at",
+        "Refined against the keyframe map",
     ] {
         assert!(html.contains(needle), "report lacks {needle}");
     }
+    // The map stage ran: a map of the survey, each test frame refined or kept.
+    let refined = &first["refined"];
+    assert!(
+        refined["keyframes"].as_u64().ok_or("keyframes")? > 10,
+        "{refined}"
+    );
+    let share = refined["refined"].as_f64().ok_or("refined")?;
+    assert!((0.0..=1.0).contains(&share), "{refined}");
+    assert!(out.join("zone.map").is_file());
     assert!(out.join("report").join("frames.png").is_file());
     assert!(out.join("report").join("saliency.png").is_file());
 

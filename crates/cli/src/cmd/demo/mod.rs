@@ -142,6 +142,9 @@ pub struct DemoArgs {
     /// 640x480 with depth; forward camera only).
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set, value_name = "BOOL")]
     map: bool,
+    /// Frames of the map's survey walks (two walks at 2 Hz).
+    #[arg(long, default_value_t = scene::MAP_SURVEY_FRAMES, value_name = "N")]
+    map_frames: usize,
     /// Print one JSON document instead of a table.
     #[arg(long)]
     json: bool,
@@ -498,7 +501,13 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let refined = if args.map && task == Task::Pose6 {
         say("4/5 refining the test walk against a keyframe map of the zone (640x480)");
         let t = Instant::now();
-        let r = refine::refine_test(&setup.scene, &args.out, &results, !args.json)?;
+        let r = refine::refine_test(
+            &setup.scene,
+            args.map_frames,
+            &args.out,
+            &results,
+            !args.json,
+        )?;
         seconds.refine = t.elapsed().as_secs_f64();
         Some(r)
     } else {

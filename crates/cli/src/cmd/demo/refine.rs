@@ -52,11 +52,12 @@ pub struct RefinedFigures {
 /// `out/zone.map` and refines each test result; the refined poses in the results' order.
 pub fn refine_test(
     plan: &ScenePlan,
+    survey_frames: usize,
     out: &Path,
     results: &[FrameResult],
     show: bool,
 ) -> Result<(RefinedFigures, Vec<Pose>)> {
-    let map_plan = plan.for_map();
+    let map_plan = plan.for_map(survey_frames);
     let dir = out.join(MAP_DATA);
     let t = Instant::now();
     let pb = bar(map_plan.total_frames() as u64, "render");

@@ -102,8 +102,8 @@ pub const MAP_WIDTH: u32 = 640;
 pub const MAP_HEIGHT: u32 = 480;
 /// Survey walks of the map.
 pub const MAP_WALKS: usize = 2;
-/// Frames per survey walk.
-pub const MAP_FRAMES_PER_WALK: usize = 400;
+/// Frames of the survey walks together, by default.
+pub const MAP_SURVEY_FRAMES: usize = 800;
 /// Frame rate of the survey walks: a frame about every 0.6 m of walking.
 pub const MAP_FPS: f64 = 2.0;
 /// Frames of the map dataset's validation walk (mapped too).
@@ -201,13 +201,14 @@ impl ScenePlan {
     /// map's resolution: walks of their own through the same zone under normal light at
     /// [`MAP_FPS`], 640x480 with depth, and the held-out test walk (the same poses) at
     /// 640x480 for the refinement's queries. The network keeps its 160x120 frames.
-    pub fn for_map(&self) -> ScenePlan {
+    /// `survey_frames`: frames of the survey walks together.
+    pub fn for_map(&self, survey_frames: usize) -> ScenePlan {
         ScenePlan {
             width: MAP_WIDTH,
             height: MAP_HEIGHT,
             train_variants: vec![normal()],
             walks_per_variant: MAP_WALKS,
-            frames_per_walk: MAP_FRAMES_PER_WALK,
+            frames_per_walk: survey_frames.div_ceil(MAP_WALKS).max(1),
             train_fps: Some(MAP_FPS),
             walk_offset: MAP_WALK_OFFSET,
             val_frames: MAP_VAL_FRAMES,
