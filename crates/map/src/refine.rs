@@ -42,7 +42,12 @@ pub struct RefineConfig {
     pub min_inliers: usize,
     /// A refined pose farther than this many coarse sigmas from the coarse pose is refused…
     pub gate_sigmas: f64,
-    /// …but never closer than this, metres (a coarse sigma can be overconfident).
+    /// …but never closer than this, metres: a network's sigma can be far too small (on the
+    /// kitchen's validation blocks the network's truth lay within 3 sigma for 5 frames of 100).
+    /// Chosen on those validation blocks (map of the training blocks, coarse poses from the
+    /// network of `study real`): refined within (5 cm, 5°) for 14 % of frames with 0.25 m,
+    /// 93 % with 0.5 m, 98 % with 0.75 m and no more above it; 0.75 m is the least that
+    /// reaches it.
     pub gate_floor_m: f64,
     /// Error of the map itself (depth noise, the mapped poses' own error), one sigma, metres;
     /// added to the PnP covariance, which knows only the pixels' noise. On the kitchen frames
@@ -53,7 +58,7 @@ pub struct RefineConfig {
 
 impl Default for RefineConfig {
     /// Three retrieved keyframes and two near the coarse pose, three near the first PnP pose,
-    /// 15 inliers, 3 sigmas (≥ 0.25 m), a 2 cm map sigma.
+    /// 15 inliers, 3 sigmas (≥ 0.75 m), a 2 cm map sigma.
     fn default() -> Self {
         RefineConfig {
             retrieved: 3,
@@ -63,7 +68,7 @@ impl Default for RefineConfig {
             pnp: PnpConfig::default(),
             min_inliers: 15,
             gate_sigmas: 3.0,
-            gate_floor_m: 0.25,
+            gate_floor_m: 0.75,
             map_sigma_m: 0.02,
         }
     }

@@ -52,6 +52,13 @@ pub struct LocalizeArgs {
     /// --model the map alone localizes, from its own retrieval.
     #[arg(long, value_name = "MAP")]
     map: Option<PathBuf>,
+    /// With --map: a refined pose farther from the coarse one than this many of its sigmas is
+    /// refused (the coarse pose is kept)…
+    #[arg(long, default_value_t = map::RefineConfig::default().gate_sigmas, value_name = "K")]
+    gate_sigmas: f64,
+    /// …but never closer than this, metres.
+    #[arg(long, default_value_t = map::RefineConfig::default().gate_floor_m, value_name = "M")]
+    gate_floor: f64,
     /// No network: answer each frame with the pose of the most similar frame of this posed
     /// dataset outside its test part (training and validation under --blocks or its own split; a thumbnail
     /// descriptor, see `map::retrieval`). `sigma_pos_m` / `sigma_rot_deg` are the spread of the
@@ -322,7 +329,14 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
         _ => (None, None),
     };
     let keyframe_map = args.map.as_deref().map(map::file::load).transpose()?;
-    let refine_cfg = map::RefineConfig::default();
+    if !(args.gate_sigmas > 0.0 && args.gate_floor >= 0.0) {
+        bail!("--gate-sigmas must be > 0 and --gate-floor ≥ 0");
+    }
+    let refine_cfg = map::RefineConfig {
+        gate_sigmas: args.gate_sigmas,
+        gate_floor_m: args.gate_floor,
+        ..map::RefineConfig::default()
+    };
     let mut estimator = match &args.retrieve {
         Some(path) => Some(Estimator::Retrieval(retrieval_index(path, args.blocks)?)),
         None => None,
