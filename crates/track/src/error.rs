@@ -17,6 +17,9 @@ pub enum TrackError {
     /// Reading a marker map or dictionary.
     #[error(transparent)]
     Markers(#[from] markers::MarkersError),
+    /// A keyframe map could not be read or used.
+    #[error(transparent)]
+    Map(#[from] map::MapError),
     /// The scene-cut detector.
     #[error(transparent)]
     Cut(#[from] scenecut::CutError),

@@ -4,6 +4,10 @@
 //!   passes for its uncertainty (or one deterministic pass plus the network's own error scale).
 //! - [`MarkerEstimator`]: ArUco markers of a marker map seen by a calibrated camera: a metric
 //!   fix whenever a mapped marker is in view, with the covariance of the corner fit.
+//! - [`MapEstimator`]: a keyframe map (`indoorloc map build`): the frame's local features
+//!   matched to the map's keyframes and the pose from PnP, starting from the estimate the
+//!   estimators before it gave (or the filter's prediction); a centimetre fix whenever the
+//!   geometry holds, nothing when it does not (the coarse pose then stands alone).
 //!
 //! Each estimator reports what it measured and how sure it is; the filter weighs them by that.
 
@@ -43,8 +47,13 @@ pub trait Estimator: Send {
     /// Short name for the pose stream and the metrics (`network`, `markers`).
     fn name(&self) -> &'static str;
     /// The pose seen in `image`, or `None` when this estimator sees nothing to go on (no marker
-    /// in view).
-    fn estimate(&mut self, image: &RgbImage) -> Result<Option<Estimation>>;
+    /// in view). `prior`: what is already known of this frame's pose, the last estimate an
+    /// estimator before this one gave for it, else the filter's prediction for its time.
+    fn estimate(
+        &mut self,
+        image: &RgbImage,
+        prior: Option<&Estimation>,
+    ) -> Result<Option<Estimation>>;
 }
 
 /// The pose network of a checkpoint folder.
@@ -74,7 +83,11 @@ impl Estimator for NetworkEstimator {
         "network"
     }
 
-    fn estimate(&mut self, image: &RgbImage) -> Result<Option<Estimation>> {
+    fn estimate(
+        &mut self,
+        image: &RgbImage,
+        _prior: Option<&Estimation>,
+    ) -> Result<Option<Estimation>> {
         // The view wants a DynamicImage; the clone of a 160x120 frame costs microseconds.
         let e = self
             .loc
@@ -123,7 +136,11 @@ impl Estimator for MarkerEstimator {
         "markers"
     }
 
-    fn estimate(&mut self, image: &RgbImage) -> Result<Option<Estimation>> {
+    fn estimate(
+        &mut self,
+        image: &RgbImage,
+        _prior: Option<&Estimation>,
+    ) -> Result<Option<Estimation>> {
         if self.gray.dimensions() != image.dimensions() {
             self.gray = GrayImage::new(image.width(), image.height());
         }
@@ -137,5 +154,55 @@ impl Estimator for MarkerEstimator {
                 sigma_rot_rad: l.sigma_rot_deg.to_radians(),
             }),
         )
+    }
+}
+
+/// Centimetre fixes from a keyframe map (see the module docs).
+pub struct MapEstimator {
+    map: map::KeyframeMap,
+    cfg: map::RefineConfig,
+}
+
+impl MapEstimator {
+    /// Loads the map file at `path` (errors name it).
+    pub fn load(path: &Path) -> Result<MapEstimator> {
+        Ok(MapEstimator::new(
+            map::file::load(path)?,
+            map::RefineConfig::default(),
+        ))
+    }
+
+    /// A loaded map with refinement settings.
+    pub fn new(map: map::KeyframeMap, cfg: map::RefineConfig) -> MapEstimator {
+        MapEstimator { map, cfg }
+    }
+}
+
+impl Estimator for MapEstimator {
+    fn name(&self) -> &'static str {
+        "map"
+    }
+
+    fn estimate(
+        &mut self,
+        image: &RgbImage,
+        prior: Option<&Estimation>,
+    ) -> Result<Option<Estimation>> {
+        let coarse = prior.map(|p| map::Coarse {
+            pose: p.pose,
+            sigma_pos_m: p.sigma_pos_m,
+        });
+        // The refinement reads a DynamicImage; the copy costs well under a millisecond.
+        let img = DynamicImage::ImageRgb8(image.clone());
+        let r = self.map.refine(&img, coarse.as_ref(), &self.cfg)?;
+        Ok(r.refined.then(|| {
+            let pos = r.cov_pos_m2.map_or(0.0, |c| c.trace());
+            let rot = r.cov_rot_rad2.map_or(0.0, |c| c.trace());
+            Estimation {
+                pose: r.pose,
+                sigma_pos_m: pos.max(0.0).sqrt(),
+                sigma_rot_rad: rot.max(0.0).sqrt(),
+            }
+        }))
     }
 }

@@ -16,7 +16,7 @@ pub mod source;
 mod stats;
 
 pub use error::{Result, TrackError};
-pub use estimator::{Estimation, Estimator, MarkerEstimator, NetworkEstimator};
+pub use estimator::{Estimation, Estimator, MapEstimator, MarkerEstimator, NetworkEstimator};
 pub use filter::{FilterConfig, Fused, Measurement, PoseFilter, Update};
 pub use pipeline::{Event, Latency, Pipeline, PipelineConfig, PoseEvent, RawEstimate, Truth};
 pub use queue::{FrameQueue, Overflow};

@@ -206,6 +206,13 @@ impl Pipeline {
         })
     }
 
+    /// The pipeline with one more estimator after the others (it sees their estimate of each
+    /// frame as its prior).
+    pub fn with_estimator(mut self, estimator: Box<dyn Estimator>) -> Pipeline {
+        self.estimators.push(estimator);
+        self
+    }
+
     /// Counts into `metrics` instead of the pipeline's own (a server that runs one pipeline
     /// after another keeps one set of figures).
     pub fn with_metrics(mut self, metrics: Arc<Metrics>) -> Pipeline {
@@ -392,8 +399,19 @@ impl<'a> Worker<'a> {
             None => false,
         };
         let mut raw: Vec<(&'static str, Estimation)> = Vec::with_capacity(estimators.len());
+        // What an estimator may start from: the last estimate of this frame, else where the
+        // filter expects the camera (none just after a cut).
+        let predicted = (!cut)
+            .then(|| self.filter.predict(t))
+            .flatten()
+            .map(|f| Estimation {
+                pose: f.pose,
+                sigma_pos_m: f.sigma_pos_m,
+                sigma_rot_rad: f.sigma_rot_rad,
+            });
         for e in estimators.iter_mut() {
-            if let Some(est) = e.estimate(&frame.image)? {
+            let prior = raw.last().map(|(_, p)| *p).or(predicted);
+            if let Some(est) = e.estimate(&frame.image, prior.as_ref())? {
                 raw.push((e.name(), est));
             }
         }

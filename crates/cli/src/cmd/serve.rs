@@ -16,7 +16,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use track::{
-    Estimator, Event, MarkerEstimator, Metrics, NetworkEstimator, Pipeline, PipelineConfig,
+    Estimator, Event, MapEstimator, MarkerEstimator, Metrics, NetworkEstimator, Pipeline,
+    PipelineConfig,
 };
 
 /// Arguments of `indoorloc serve`.
@@ -55,6 +56,11 @@ pub struct ServeArgs {
     /// ArUco dictionary of the markers (default: the map's, else 4x4_50).
     #[arg(long)]
     dict: Option<String>,
+    /// Keyframe map (`indoorloc map build`): each frame refined against it from the network's
+    /// pose (or the filter's prediction), centimetre fixes fused with the rest; frames it cannot
+    /// refine add nothing.
+    #[arg(long = "map", value_name = "MAP")]
+    keyframes: Option<PathBuf>,
     /// Play a file source at its recorded pace, as if live (a busy pipeline then drops stale
     /// frames). Camera and stdin sources are always live.
     #[arg(long)]
@@ -228,8 +234,8 @@ fn plan(args: &ServeArgs) -> Result<Plan> {
     let Some(source) = args.source.clone() else {
         bail!("serve needs --source INPUT (or --demo)");
     };
-    if args.model.is_none() && args.markers.is_none() {
-        bail!("serve needs --model DIR, --markers FILE --camera FILE, or both");
+    if args.model.is_none() && args.markers.is_none() && args.keyframes.is_none() {
+        bail!("serve needs --model DIR, --markers FILE --camera FILE, --map MAP, or several");
     }
     let map = dataset_map(Path::new(&source), split)?;
     Ok(Plan {
@@ -262,6 +268,9 @@ fn build_pipeline(args: &ServeArgs, plan: &Plan) -> Result<Pipeline> {
         (Some(_), None) => bail!("--markers needs --camera FILE (the camera's intrinsics)"),
         (None, Some(_)) => bail!("--camera is only used with --markers"),
         (None, None) => {}
+    }
+    if let Some(path) = &args.keyframes {
+        estimators.push(Box::new(MapEstimator::load(path)?));
     }
     let cfg = PipelineConfig {
         realtime: plan.realtime,

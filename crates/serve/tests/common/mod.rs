@@ -34,7 +34,11 @@ impl Estimator for PaintedPose {
         "painted"
     }
 
-    fn estimate(&mut self, image: &RgbImage) -> track::Result<Option<Estimation>> {
+    fn estimate(
+        &mut self,
+        image: &RgbImage,
+        _prior: Option<&Estimation>,
+    ) -> track::Result<Option<Estimation>> {
         let x = f64::from(image.get_pixel(0, 0)[0]) / 10.0;
         Ok(Some(Estimation {
             pose: geom::Pose::new(

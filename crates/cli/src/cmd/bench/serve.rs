@@ -3,7 +3,9 @@
 //!
 //! 1. Throughput: the demo's held-out walk (160x120 PNG frames on disk) through the pipeline
 //!    of `indoorloc serve` as fast as it goes (read and decode, cut detector, network,
-//!    filter), with MC dropout off and on: frames/s end to end and the p50 / p99 latency.
+//!    filter), with MC dropout off and on: frames/s end to end and the p50 / p99 latency; and,
+//!    when the demo built its keyframe map (`zone.map`), the same walk at 640x480
+//!    (`map-data`) through the network and the map's refinement.
 //! 2. Load: the server in this process, the walk played in real time at `--load-fps` and
 //!    looped, `--clients` WebSocket clients on loopback for `--seconds`: messages per client
 //!    (none may starve), clients dropped, and resident memory sampled every second (it must
@@ -27,6 +29,12 @@ use track::{Event, NetworkEstimator, Pipeline, PipelineConfig, Stage};
 pub struct Throughput {
     /// MC-dropout passes per frame.
     pub mc: usize,
+    /// `network` (160x120 frames), or `network+map` (640x480 frames, refined against the
+    /// demo's keyframe map).
+    pub estimators: &'static str,
+    /// Share of frames the map refined (`network+map` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refined: Option<f64>,
     /// Frames through the pipeline.
     pub frames: u64,
     /// Frames per second end to end.
@@ -91,11 +99,30 @@ pub fn bench(
     }
     let data_s = data.to_string_lossy().into_owned();
     let mut throughput = Vec::new();
-    for passes in [0, mc] {
-        let p = pipeline(&model, &data_s, passes, None, false)?;
+    let keyframes = demo_dir.join(crate::cmd::demo::refine::MAP_FILE);
+    let map_data = demo_dir.join(crate::cmd::demo::refine::MAP_DATA);
+    let mut runs = vec![(0, None, data_s.clone()), (mc, None, data_s.clone())];
+    if keyframes.is_file() && map_data.is_dir() {
+        runs.push((
+            0,
+            Some(keyframes.as_path()),
+            map_data.to_string_lossy().into_owned(),
+        ));
+    }
+    for (passes, keyframes, data) in runs {
+        let mut p = pipeline(&model, &data, passes, None, false)?;
+        if let Some(path) = keyframes {
+            p = p.with_estimator(Box::new(track::MapEstimator::load(path)?));
+        }
         let metrics = p.metrics();
         let t = Instant::now();
-        if let Event::Error { message, .. } = p.run(|_, _| {}) {
+        let (mut poses, mut refined) = (0usize, 0usize);
+        if let Event::Error { message, .. } = p.run(|e, _| {
+            if let Event::Pose(pose) = e {
+                poses += 1;
+                refined += usize::from(pose.measurements.iter().any(|m| m.estimator == "map"));
+            }
+        }) {
             bail!("the pipeline failed: {message}");
         }
         let s = t.elapsed().as_secs_f64();
@@ -104,6 +131,12 @@ pub fn bench(
         let (total, est) = (stage(Stage::Total)?, stage(Stage::Estimate)?);
         throughput.push(Throughput {
             mc: passes,
+            estimators: if keyframes.is_some() {
+                "network+map"
+            } else {
+                "network"
+            },
+            refined: keyframes.map(|_| refined as f64 / poses.max(1) as f64),
             frames: snap.poses,
             fps: snap.poses as f64 / s,
             p50_ms: total.p50_ms,
@@ -241,13 +274,16 @@ fn load(model: &Path, data: &str, clients: usize, seconds: f64, fps: f64) -> Res
 /// The text table.
 pub fn table(f: &ServeFigures) -> String {
     let mut t = format!(
-        "{:<12}{:>4}{:>8}{:>10}{:>10}{:>10}{:>14}\n",
-        "serve", "MC", "frames", "frames/s", "p50 ms", "p99 ms", "estimate ms"
+        "{:<14}{:>4}{:>8}{:>10}{:>10}{:>10}{:>14}{:>9}\n",
+        "serve", "MC", "frames", "frames/s", "p50 ms", "p99 ms", "estimate ms", "refined"
     );
     for r in &f.throughput {
+        let refined = r
+            .refined
+            .map_or("-".to_string(), |v| format!("{:.0} %", 100.0 * v));
         t.push_str(&format!(
-            "{:<12}{:>4}{:>8}{:>10.1}{:>10.2}{:>10.2}{:>14.2}\n",
-            "pipeline", r.mc, r.frames, r.fps, r.p50_ms, r.p99_ms, r.estimate_p50_ms
+            "{:<14}{:>4}{:>8}{:>10.1}{:>10.2}{:>10.2}{:>14.2}{:>9}\n",
+            r.estimators, r.mc, r.frames, r.fps, r.p50_ms, r.p99_ms, r.estimate_p50_ms, refined
         ));
     }
     let l = &f.load;
