@@ -45,13 +45,16 @@ pub(crate) struct Corner {
     pub response: f32,
 }
 
-/// Up to `quota` corners of a level (see the module docs): FAST at `cfg.threshold`, again at
-/// `cfg.min_threshold` when that finds fewer than `quota`.
+/// Up to `quota` corners of a level (see the module docs): FAST at `cfg.threshold`, or at
+/// `cfg.min_threshold` when that finds fewer than `quota` (one scan finds both).
 pub(crate) fn corners(img: &GrayImage, quota: usize, cfg: &ExtractConfig) -> Vec<Corner> {
-    let mut found = fast(img, cfg.threshold);
-    if found.len() < quota && cfg.min_threshold < cfg.threshold {
-        found = fast(img, cfg.min_threshold);
-    }
+    let low = cfg.min_threshold.min(cfg.threshold);
+    let [at_low, at_high] = fast(img, low, cfg.threshold);
+    let found = if at_high.len() >= quota {
+        at_high
+    } else {
+        at_low
+    };
     let mut ranked: Vec<Corner> = found
         .into_iter()
         .map(|(x, y)| Corner {
@@ -70,64 +73,86 @@ pub(crate) fn corners(img: &GrayImage, quota: usize, cfg: &ExtractConfig) -> Vec
     chosen
 }
 
-/// FAST-9 corners after 3x3 non-maximum suppression on the FAST score, inside the border a
-/// descriptor needs.
-fn fast(img: &GrayImage, threshold: u8) -> Vec<(u32, u32)> {
+/// FAST-9 corners at two thresholds (`low` ≤ `high`), each set after 3x3 non-maximum
+/// suppression on its own FAST score, inside the border a descriptor needs. One scan: a
+/// corner at `high` is one at `low`.
+fn fast(img: &GrayImage, low: u8, high: u8) -> [Vec<(u32, u32)>; 2] {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let b = BORDER as usize;
     if w <= 2 * b || h <= 2 * b {
-        return Vec::new();
+        return [Vec::new(), Vec::new()];
     }
     let px = img.as_raw();
     let offsets: Vec<isize> = CIRCLE
         .iter()
         .map(|&(dx, dy)| dy as isize * w as isize + dx as isize)
         .collect();
-    let t = i16::from(threshold);
-    let mut score = vec![0u16; w * h];
-    let mut candidates = Vec::new();
+    let thresholds = [i16::from(low), i16::from(high.max(low))];
+    let mut scores = [vec![0u16; w * h], vec![0u16; w * h]];
+    let mut candidates = [Vec::new(), Vec::new()];
     for y in b..h - b {
         let row = y * w;
         for x in b..w - b {
             let i = row + x;
             let p = i16::from(px[i]);
-            let (hi, lo) = (p + t, p - t);
             let at = |k: usize| i16::from(px[(i as isize + offsets[k]) as usize]);
-            // Any 9 contiguous pixels of the 16 hold at least two of the four compass points.
-            let compass = [at(0), at(4), at(8), at(12)];
+            let (hi, lo) = (p + thresholds[0], p - thresholds[0]);
+            // Any 9 contiguous pixels of the 16 hold pixel 0 or pixel 8 (most pixels end here)…
+            let (top, bottom) = (at(0), at(8));
+            if (lo..=hi).contains(&top) && (lo..=hi).contains(&bottom) {
+                continue;
+            }
+            // …and at least two of the four compass points.
+            let compass = [top, at(4), bottom, at(12)];
             let bright = compass.iter().filter(|&&v| v > hi).count();
             let dark = compass.iter().filter(|&&v| v < lo).count();
             if bright < 2 && dark < 2 {
                 continue;
             }
-            let (mut bmask, mut dmask) = (0u32, 0u32);
-            let (mut bsum, mut dsum) = (0u32, 0u32);
-            for k in 0..16 {
-                let v = at(k);
-                if v > hi {
-                    bmask |= 1 << k;
-                    bsum += (v - hi) as u32;
-                } else if v < lo {
-                    dmask |= 1 << k;
-                    dsum += (lo - v) as u32;
+            let ring: [i16; 16] = std::array::from_fn(at);
+            for (k, &t) in thresholds.iter().enumerate() {
+                match fast_score(p, &ring, t) {
+                    Some(score) => {
+                        scores[k][i] = score;
+                        candidates[k].push((x as u32, y as u32));
+                    }
+                    // Not a corner at the low threshold: not at the high one either.
+                    None => break,
                 }
-            }
-            if has_arc_of_nine(bmask) || has_arc_of_nine(dmask) {
-                score[i] = bsum.max(dsum).clamp(1, u32::from(u16::MAX)) as u16;
-                candidates.push((x as u32, y as u32));
             }
         }
     }
-    candidates.retain(|&(x, y)| {
-        let i = y as usize * w + x as usize;
-        let s = score[i];
-        // Ties go to the first in scan order: strictly above the neighbours before, at
-        // least the neighbours after.
-        let before = [i - w - 1, i - w, i - w + 1, i - 1];
-        let after = [i + 1, i + w - 1, i + w, i + w + 1];
-        before.iter().all(|&j| s > score[j]) && after.iter().all(|&j| s >= score[j])
-    });
+    for (cands, score) in candidates.iter_mut().zip(&scores) {
+        cands.retain(|&(x, y)| {
+            let i = y as usize * w + x as usize;
+            let s = score[i];
+            // Ties go to the first in scan order: strictly above the neighbours before, at
+            // least the neighbours after.
+            let before = [i - w - 1, i - w, i - w + 1, i - 1];
+            let after = [i + 1, i + w - 1, i + w, i + w + 1];
+            before.iter().all(|&j| s > score[j]) && after.iter().all(|&j| s >= score[j])
+        });
+    }
     candidates
+}
+
+/// The FAST score of a pixel `p` with its ring at threshold `t` (the larger of the summed
+/// excesses of the brighter and the darker ring pixels), when it is a corner there.
+fn fast_score(p: i16, ring: &[i16; 16], t: i16) -> Option<u16> {
+    let (hi, lo) = (p + t, p - t);
+    let (mut bmask, mut dmask) = (0u32, 0u32);
+    let (mut bsum, mut dsum) = (0u32, 0u32);
+    for (k, &v) in ring.iter().enumerate() {
+        if v > hi {
+            bmask |= 1 << k;
+            bsum += (v - hi) as u32;
+        } else if v < lo {
+            dmask |= 1 << k;
+            dsum += (lo - v) as u32;
+        }
+    }
+    (has_arc_of_nine(bmask) || has_arc_of_nine(dmask))
+        .then(|| bsum.max(dsum).clamp(1, u32::from(u16::MAX)) as u16)
 }
 
 /// True when nine consecutive bits (circularly) of a 16-bit mask are set.
