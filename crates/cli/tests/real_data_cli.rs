@@ -244,6 +244,18 @@ fn map_build_and_localize_with_the_map_refine_held_out_kitchen_frames() -> TestR
     );
     assert!(p < 0.03 && r < 1.5, "refined {p:.3} m / {r:.2}°");
 
+    // A photo of another camera's shape: refused, naming the map.
+    let other = dir.path().join("other");
+    std::fs::create_dir_all(&other)?;
+    image::RgbImage::new(640, 360).save(other.join("wide.png"))?;
+    let run = indoorloc(&["localize", "--map", m, other.to_str().ok_or("path")?])?;
+    assert_eq!(run.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        err.contains("kitchen.map") && err.contains("640x360"),
+        "{err}"
+    );
+
     let bytes = std::fs::read(&map)?;
     std::fs::write(&map, &bytes[..bytes.len() - 10])?;
     let run = indoorloc(&[

@@ -119,9 +119,12 @@ pub(crate) fn describe(smooth: &GrayImage, x: u32, y: u32, angle: f32) -> Descri
     let px = smooth.as_raw();
     let (s, c) = angle.sin_cos();
     let (x, y) = (x as i32, y as i32);
+    // Nearest pixel by truncating a shifted positive value: a conversion instruction, where
+    // `f32::round` is a library call (a tenth of the extraction's time).
+    let nearest = |v: f32| (v + 64.5) as i32 - 64;
     let at = |u: f32, v: f32| {
-        let xx = x + (c * u - s * v).round() as i32;
-        let yy = y + (s * u + c * v).round() as i32;
+        let xx = x + nearest(c * u - s * v);
+        let yy = y + nearest(s * u + c * v);
         px[(yy * w + xx) as usize]
     };
     let mut d = [0u64; 4];

@@ -90,26 +90,19 @@ fn fast(img: &GrayImage, low: u8, high: u8) -> [Vec<(u32, u32)>; 2] {
     let thresholds = [i16::from(low), i16::from(high.max(low))];
     let mut scores = [vec![0u16; w * h], vec![0u16; w * h]];
     let mut candidates = [Vec::new(), Vec::new()];
+    let t0 = thresholds[0] as u8;
+    let mut maybe = vec![false; w];
     for y in b..h - b {
         let row = y * w;
+        compass_test(px, w, y, t0, &mut maybe);
         for x in b..w - b {
+            if !maybe[x] {
+                continue;
+            }
             let i = row + x;
             let p = i16::from(px[i]);
-            let at = |k: usize| i16::from(px[(i as isize + offsets[k]) as usize]);
-            let (hi, lo) = (p + thresholds[0], p - thresholds[0]);
-            // Any 9 contiguous pixels of the 16 hold pixel 0 or pixel 8 (most pixels end here)…
-            let (top, bottom) = (at(0), at(8));
-            if (lo..=hi).contains(&top) && (lo..=hi).contains(&bottom) {
-                continue;
-            }
-            // …and at least two of the four compass points.
-            let compass = [top, at(4), bottom, at(12)];
-            let bright = compass.iter().filter(|&&v| v > hi).count();
-            let dark = compass.iter().filter(|&&v| v < lo).count();
-            if bright < 2 && dark < 2 {
-                continue;
-            }
-            let ring: [i16; 16] = std::array::from_fn(at);
+            let ring: [i16; 16] =
+                std::array::from_fn(|k| i16::from(px[(i as isize + offsets[k]) as usize]));
             for (k, &t) in thresholds.iter().enumerate() {
                 match fast_score(p, &ring, t) {
                     Some(score) => {
@@ -136,23 +129,47 @@ fn fast(img: &GrayImage, low: u8, high: u8) -> [Vec<(u32, u32)>; 2] {
     candidates
 }
 
+/// Marks the pixels of row `y` that may be corners at threshold `t`: at least two of the four
+/// compass points of the ring (3 pixels up, down, left, right) brighter than the pixel plus
+/// `t`, or two darker than it minus `t` (any nine contiguous ring pixels hold two of them).
+/// Branch-free byte arithmetic over whole rows, which the compiler vectorises: most pixels end
+/// here, and the ring of the rest is examined one pixel at a time.
+fn compass_test(px: &[u8], w: usize, y: usize, t: u8, maybe: &mut [bool]) {
+    let b = BORDER as usize;
+    let row = &px[y * w..(y + 1) * w];
+    let (up, down) = (&px[(y - 3) * w..(y - 2) * w], &px[(y + 3) * w..(y + 4) * w]);
+    let centre = &row[b..w - b];
+    let lanes = centre
+        .iter()
+        .zip(&up[b..w - b])
+        .zip(&down[b..w - b])
+        .zip(&row[b - 3..w - b - 3])
+        .zip(&row[b + 3..w - b + 3]);
+    for (m, ((((&p, &n), &s), &west), &east)) in maybe[b..w - b].iter_mut().zip(lanes) {
+        let (hi, lo) = (p.saturating_add(t), p.saturating_sub(t));
+        let bright =
+            u8::from(n > hi) + u8::from(s > hi) + u8::from(west > hi) + u8::from(east > hi);
+        let dark = u8::from(n < lo) + u8::from(s < lo) + u8::from(west < lo) + u8::from(east < lo);
+        *m = (bright >= 2) | (dark >= 2);
+    }
+}
+
 /// The FAST score of a pixel `p` with its ring at threshold `t` (the larger of the summed
 /// excesses of the brighter and the darker ring pixels), when it is a corner there.
 fn fast_score(p: i16, ring: &[i16; 16], t: i16) -> Option<u16> {
     let (hi, lo) = (p + t, p - t);
+    // Masks first, without branches; the sums only for the few pixels that are corners.
     let (mut bmask, mut dmask) = (0u32, 0u32);
-    let (mut bsum, mut dsum) = (0u32, 0u32);
     for (k, &v) in ring.iter().enumerate() {
-        if v > hi {
-            bmask |= 1 << k;
-            bsum += (v - hi) as u32;
-        } else if v < lo {
-            dmask |= 1 << k;
-            dsum += (lo - v) as u32;
-        }
+        bmask |= u32::from(v > hi) << k;
+        dmask |= u32::from(v < lo) << k;
     }
-    (has_arc_of_nine(bmask) || has_arc_of_nine(dmask))
-        .then(|| bsum.max(dsum).clamp(1, u32::from(u16::MAX)) as u16)
+    if !(has_arc_of_nine(bmask) || has_arc_of_nine(dmask)) {
+        return None;
+    }
+    let bsum: u32 = ring.iter().map(|&v| (v - hi).max(0) as u32).sum();
+    let dsum: u32 = ring.iter().map(|&v| (lo - v).max(0) as u32).sum();
+    Some(bsum.max(dsum).clamp(1, u32::from(u16::MAX)) as u16)
 }
 
 /// True when nine consecutive bits (circularly) of a 16-bit mask are set.

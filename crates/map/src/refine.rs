@@ -172,6 +172,18 @@ impl KeyframeMap {
         if self.is_empty() {
             return Err(MapError::Input("the map has no keyframes".into()));
         }
+        let (mw, mh) = (f64::from(self.camera.width), f64::from(self.camera.height));
+        let (qw, qh) = (f64::from(img.width()), f64::from(img.height()));
+        if ((qw / qh) / (mw / mh) - 1.0).abs() > 0.01 {
+            return Err(MapError::Input(format!(
+                "a {}x{} query, but the map's camera is {}x{}: another camera (build a map of \
+                 this one's images)",
+                img.width(),
+                img.height(),
+                self.camera.width,
+                self.camera.height
+            )));
+        }
         let t0 = Instant::now();
         let camera = if (img.width(), img.height()) == (self.camera.width, self.camera.height) {
             self.camera

@@ -101,6 +101,13 @@ fn frames_between_mapped_frames_refine_to_centimetres_and_strangers_fall_back() 
         pose: truth,
         sigma_pos_m: 0.3,
     };
+    // A camera of another shape is refused, not refined.
+    let wide = DynamicImage::ImageRgb8(RgbImage::new(640, 360));
+    let e = km
+        .refine(&wide, Some(&coarse), &cfg)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("640x360") && e.contains("640x480"), "{e}");
     for (what, img) in [("blank", blank), ("dark", dark), ("stairs", stairs)] {
         let r = km.refine(&img, Some(&coarse), &cfg).unwrap();
         assert!(!r.refined, "{what}: refined with {} inliers", r.inliers);

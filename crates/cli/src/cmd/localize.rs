@@ -436,7 +436,10 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
                 });
                 let r = km
                     .refine(&img, coarse.as_ref(), &refine_cfg)
-                    .with_context(|| format!("frame {}", item.name))?;
+                    .with_context(|| {
+                        let map = args.map.as_deref().unwrap_or(Path::new("")).display();
+                        format!("frame {} against {map}", item.name)
+                    })?;
                 Some(PoseFields::refined(est.as_ref(), &r))
             }
             None => est.as_ref().map(PoseFields::of),
