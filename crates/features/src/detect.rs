@@ -95,10 +95,7 @@ fn fast(img: &GrayImage, low: u8, high: u8) -> [Vec<(u32, u32)>; 2] {
     for y in b..h - b {
         let row = y * w;
         compass_test(px, w, y, t0, &mut maybe);
-        for x in b..w - b {
-            if !maybe[x] {
-                continue;
-            }
+        for (x, _) in maybe.iter().enumerate().filter(|(_, m)| **m) {
             let i = row + x;
             let p = i16::from(px[i]);
             let ring: [i16; 16] =
