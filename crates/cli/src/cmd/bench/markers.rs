@@ -43,7 +43,8 @@ pub struct MarkerFigures {
 
 /// Runs the benchmark where the shared photos are.
 pub fn bench(peer: Result<Peer>) -> Result<Vec<MarkerFigures>> {
-    let dir = shared_photos().context("../shared/data/aruco_real not found beside the checkout")?;
+    let dir = super::shared_data("data/aruco_real", "gold.json", Path::is_file)
+        .context("../shared/data/aruco_real not found beside the checkout")?;
     let dict = Dictionary::predefined("6x6_250")?;
     let params = DetectParams::default();
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
@@ -148,17 +149,4 @@ fn opencv(peer: &Peer, image: &Path) -> Result<(f64, usize)> {
         .as_u64()
         .context("aruco.py printed no n_markers")? as usize;
     Ok((ms, n))
-}
-
-/// `../shared/data/aruco_real` (or `$INDOORLOC_SHARED/data/aruco_real`).
-fn shared_photos() -> Option<PathBuf> {
-    let rel = "data/aruco_real";
-    [
-        std::env::var_os("INDOORLOC_SHARED").map(|d| Path::new(&d).join(rel)),
-        Some(Path::new("../shared").join(rel)),
-        Some(Path::new("shared").join(rel)),
-    ]
-    .into_iter()
-    .flatten()
-    .find(|p| p.join("gold.json").is_file())
 }

@@ -481,6 +481,19 @@ fn run_metrics_peer(args: &BenchArgs, gt: &Path, est: &Path) -> Result<f64> {
         .context("metrics.py printed no compute_ms")
 }
 
+/// `rel` under the shared folder (`$INDOORLOC_SHARED`, `../shared` or `shared`, first found)
+/// when `is_there` holds for its `marker` (the file or folder that says the data is there).
+fn shared_data(rel: &str, marker: &str, is_there: fn(&Path) -> bool) -> Option<PathBuf> {
+    [
+        std::env::var_os("INDOORLOC_SHARED").map(|d| Path::new(&d).join(rel)),
+        Some(Path::new("../shared").join(rel)),
+        Some(Path::new("shared").join(rel)),
+    ]
+    .into_iter()
+    .flatten()
+    .find(|p| is_there(&p.join(marker)))
+}
+
 /// The peer scripts and the Python of their venv.
 pub struct Peer {
     /// Folder of the peer scripts.

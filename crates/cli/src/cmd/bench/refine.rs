@@ -13,7 +13,7 @@ use map::depth::DepthModel;
 use map::{BuildConfig, RefineConfig};
 use rayon::prelude::*;
 use serde::Serialize;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
@@ -59,7 +59,7 @@ pub fn bench(
 ) -> Result<Vec<RefineFigures>> {
     let data = match data {
         Some(d) => d.to_path_buf(),
-        None => shared_kitchen().context(
+        None => super::shared_data("data/7scenes_redkitchen_seq01", "seq-01", Path::is_dir).context(
             "../shared/data/7scenes_redkitchen_seq01 not found beside the checkout (pass --refine-data)",
         )?,
     };
@@ -240,19 +240,6 @@ fn ranges(numbers: &[u64]) -> String {
         i += 1;
     }
     parts.join(",")
-}
-
-/// The shared kitchen frames (`$INDOORLOC_SHARED`, `../shared` or `shared`).
-fn shared_kitchen() -> Option<PathBuf> {
-    let rel = "data/7scenes_redkitchen_seq01";
-    [
-        std::env::var_os("INDOORLOC_SHARED").map(|d| Path::new(&d).join(rel)),
-        Some(Path::new("../shared").join(rel)),
-        Some(Path::new("shared").join(rel)),
-    ]
-    .into_iter()
-    .flatten()
-    .find(|p| p.join("seq-01").is_dir())
 }
 
 /// The table printed without `--json`.
