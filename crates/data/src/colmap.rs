@@ -318,7 +318,7 @@ fn parse_image(path: &Path, line_no: usize, line: &str) -> Result<(u32, Image)> 
 /// two lines per image (a common mistake of hand-made files), which would drop every other image.
 fn check_points(path: &Path, line_no: usize, line: &str, image_line: usize) -> Result<()> {
     let n = line.split_whitespace().count();
-    if n % 3 != 0 {
+    if !n.is_multiple_of(3) {
         return Err(DataError::parse(
             path,
             line_no,

@@ -309,10 +309,10 @@ fn camera<'a>(
             }),
         }
     };
-    if let Some(model) = get("camera_model").and_then(Value::as_str) {
-        if !["OPENCV", "PINHOLE", "SIMPLE_PINHOLE"].contains(&model) {
-            return Ok(None);
-        }
+    if let Some(model) = get("camera_model").and_then(Value::as_str)
+        && !["OPENCV", "PINHOLE", "SIMPLE_PINHOLE"].contains(&model)
+    {
+        return Ok(None);
     }
     let (Some(w), Some(h)) = (num("w")?, num("h")?) else {
         return Ok(None);

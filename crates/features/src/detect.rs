@@ -90,12 +90,11 @@ fn fast(img: &GrayImage, low: u8, high: u8) -> [Vec<(u32, u32)>; 2] {
     let thresholds = [i16::from(low), i16::from(high.max(low))];
     let mut scores = [vec![0u16; w * h], vec![0u16; w * h]];
     let mut candidates = [Vec::new(), Vec::new()];
-    let t0 = thresholds[0] as u8;
-    let mut maybe = vec![false; w];
+    let mut arcs = RingArcs::new(w - 2 * b);
     for y in b..h - b {
         let row = y * w;
-        compass_test(px, w, y, t0, &mut maybe);
-        for (x, _) in maybe.iter().enumerate().filter(|(_, m)| **m) {
+        arcs.scan(px, w, y, thresholds[0] as u8);
+        for x in arcs.corners().map(|i| i + b) {
             let i = row + x;
             let p = i16::from(px[i]);
             let ring: [i16; 16] =
@@ -126,28 +125,87 @@ fn fast(img: &GrayImage, low: u8, high: u8) -> [Vec<(u32, u32)>; 2] {
     candidates
 }
 
-/// Marks the pixels of row `y` that may be corners at threshold `t`: at least two of the four
-/// compass points of the ring (3 pixels up, down, left, right) brighter than the pixel plus
-/// `t`, or two darker than it minus `t` (any nine contiguous ring pixels hold two of them).
-/// Branch-free byte arithmetic over whole rows, which the compiler vectorises: most pixels end
-/// here, and the ring of the rest is examined one pixel at a time.
-fn compass_test(px: &[u8], w: usize, y: usize, t: u8, maybe: &mut [bool]) {
-    let b = BORDER as usize;
-    let row = &px[y * w..(y + 1) * w];
-    let (up, down) = (&px[(y - 3) * w..(y - 2) * w], &px[(y + 3) * w..(y + 4) * w]);
-    let centre = &row[b..w - b];
-    let lanes = centre
-        .iter()
-        .zip(&up[b..w - b])
-        .zip(&down[b..w - b])
-        .zip(&row[b - 3..w - b - 3])
-        .zip(&row[b + 3..w - b + 3]);
-    for (m, ((((&p, &n), &s), &west), &east)) in maybe[b..w - b].iter_mut().zip(lanes) {
-        let (hi, lo) = (p.saturating_add(t), p.saturating_sub(t));
-        let bright =
-            u8::from(n > hi) + u8::from(s > hi) + u8::from(west > hi) + u8::from(east > hi);
-        let dark = u8::from(n < lo) + u8::from(s < lo) + u8::from(west < lo) + u8::from(east < lo);
-        *m = (bright >= 2) | (dark >= 2);
+/// The segment test of FAST over a whole row at once: for each pixel inside the border, the
+/// ring pixels brighter than it plus `t` and darker than it minus `t` as two 16-bit masks,
+/// built one ring position at a time over the row (byte compares the compiler vectorises),
+/// then the arc-of-nine test on every mask. A third of a textured image's pixels pass a
+/// cheaper pre-test at FAST's low threshold, too many to examine one by one.
+struct RingArcs {
+    hi: Vec<u8>,
+    lo: Vec<u8>,
+    bright: Vec<u16>,
+    dark: Vec<u16>,
+    corner: Vec<bool>,
+}
+
+impl RingArcs {
+    fn new(n: usize) -> Self {
+        RingArcs {
+            hi: vec![0; n],
+            lo: vec![0; n],
+            bright: vec![0; n],
+            dark: vec![0; n],
+            corner: vec![false; n],
+        }
+    }
+
+    /// Tests the pixels of row `y` (from the border on) at threshold `t`.
+    fn scan(&mut self, px: &[u8], w: usize, y: usize, t: u8) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
+                return unsafe { self.scan_avx2(px, w, y, t) };
+            }
+        }
+        self.scan_portable(px, w, y, t);
+    }
+
+    /// [`Self::scan_portable`] compiled for AVX2: twice the lanes of the baseline's SSE2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn scan_avx2(&mut self, px: &[u8], w: usize, y: usize, t: u8) {
+        self.scan_portable(px, w, y, t);
+    }
+
+    #[inline(always)]
+    fn scan_portable(&mut self, px: &[u8], w: usize, y: usize, t: u8) {
+        let b = BORDER as usize;
+        let n = self.hi.len();
+        let centre = &px[y * w + b..y * w + b + n];
+        for ((hi, lo), &p) in self.hi.iter_mut().zip(&mut self.lo).zip(centre) {
+            *hi = p.saturating_add(t);
+            *lo = p.saturating_sub(t);
+        }
+        self.bright.fill(0);
+        self.dark.fill(0);
+        for (k, &(dx, dy)) in CIRCLE.iter().enumerate() {
+            let start =
+                ((y as isize + dy as isize) * w as isize + b as isize + dx as isize) as usize;
+            let ring = &px[start..start + n];
+            let lanes = self
+                .bright
+                .iter_mut()
+                .zip(&mut self.dark)
+                .zip(&self.hi)
+                .zip(&self.lo);
+            for ((((bm, dm), &hi), &lo), &v) in lanes.zip(ring) {
+                *bm |= u16::from(v > hi) << k;
+                *dm |= u16::from(v < lo) << k;
+            }
+        }
+        for ((c, &bm), &dm) in self.corner.iter_mut().zip(&self.bright).zip(&self.dark) {
+            *c = has_arc_of_nine(u32::from(bm)) | has_arc_of_nine(u32::from(dm));
+        }
+    }
+
+    /// Positions (from the border) of the corners the last scan found.
+    fn corners(&self) -> impl Iterator<Item = usize> + '_ {
+        self.corner
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| **c)
+            .map(|(x, _)| x)
     }
 }
 

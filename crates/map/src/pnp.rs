@@ -163,10 +163,10 @@ pub fn solve(camera: &Camera, corr: &[Correspondence], cfg: &PnpConfig) -> Optio
         }
         let sample = [i, j, k];
         for hyp in p3p(sample.map(|s| bearings[s]), sample.map(|s| corr[s].world)) {
-            if let Some(p) = &cfg.prior {
-                if (hyp.centre() - p.centre).norm() > p.radius_m {
-                    continue;
-                }
+            if let Some(p) = &cfg.prior
+                && (hyp.centre() - p.centre).norm() > p.radius_m
+            {
+                continue;
             }
             let bar = best.map_or(0, |b| b.1);
             let count = count_inliers(camera, corr, &hyp, thr2, bar);

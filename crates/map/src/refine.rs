@@ -258,10 +258,10 @@ impl KeyframeMap {
                 timings.matching_ms += ms_since(t3);
                 let t4 = Instant::now();
                 let first_inliers = first.inliers.len();
-                if let Solved::Pose(second) = solve_near(&camera, &corr, coarse, cfg) {
-                    if second.inliers.len() >= first_inliers {
-                        solved = Solved::Pose(second);
-                    }
+                if let Solved::Pose(second) = solve_near(&camera, &corr, coarse, cfg)
+                    && second.inliers.len() >= first_inliers
+                {
+                    solved = Solved::Pose(second);
                 }
                 timings.pnp_ms += ms_since(t4);
             }
@@ -391,10 +391,11 @@ fn solve_near(
     let centre = Vector3::from(c.pose.position());
     let allowed_m = cfg.gate_radius(c);
     let distance = |s: &pnp::PnpSolution| (s.pose.centre() - centre).norm();
-    if let Some(s) = free.as_ref() {
-        if free_inliers >= cfg.min_inliers && distance(s) <= allowed_m {
-            return Solved::Pose(Box::new(free.expect("checked")));
-        }
+    if let Some(s) = free.as_ref()
+        && free_inliers >= cfg.min_inliers
+        && distance(s) <= allowed_m
+    {
+        return Solved::Pose(Box::new(free.expect("checked")));
     }
     let near_cfg = PnpConfig {
         prior: Some(Prior {

@@ -342,13 +342,13 @@ impl Detector {
                 ),
             });
         }
-        if let Some(prev) = self.entries.back() {
-            if index <= prev.index {
-                return Err(CutError::Frame {
-                    frame: index,
-                    msg: format!("frames must come in order (previous was {})", prev.index),
-                });
-            }
+        if let Some(prev) = self.entries.back()
+            && index <= prev.index
+        {
+            return Err(CutError::Frame {
+                frame: index,
+                msg: format!("frames must come in order (previous was {})", prev.index),
+            });
         }
         let mut column = self.spare.pop().unwrap_or_default();
         column.clear();

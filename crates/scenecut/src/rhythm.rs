@@ -36,7 +36,7 @@ impl RhythmImage {
 
     /// Adds the next frame's thumbnail (RGB, the size given to [`new`](Self::new)).
     pub fn push(&mut self, rgb: &[u8]) {
-        let keep = self.seen % self.stride == 0;
+        let keep = self.seen.is_multiple_of(self.stride);
         self.seen += 1;
         if !keep {
             return;

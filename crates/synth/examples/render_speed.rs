@@ -51,10 +51,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let camera = Camera::from_hfov(w, h, 60f64.to_radians())?;
         for mode in RenderMode::ALL {
             // RENDER_SPEED_ONLY=textured@160 (say) measures one case, for profiling.
-            if let Ok(only) = std::env::var("RENDER_SPEED_ONLY") {
-                if only != format!("{}@{w}", mode.name()) {
-                    continue;
-                }
+            if let Ok(only) = std::env::var("RENDER_SPEED_ONLY")
+                && only != format!("{}@{w}", mode.name())
+            {
+                continue;
             }
             let opts = RenderOptions {
                 mode,

@@ -103,7 +103,7 @@ pub fn run(args: &ExplainArgs) -> Result<()> {
         if rows.len() >= args.max {
             break;
         }
-        if i as u64 % args.every != 0 {
+        if !(i as u64).is_multiple_of(args.every) {
             continue;
         }
         let frame = frame?;

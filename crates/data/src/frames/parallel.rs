@@ -170,12 +170,11 @@ fn decode_stretches(
         }
     };
     for s in stretches {
-        if let Some(k) = s.seek {
-            if let Err(e) = video.seek_keyframe(k) {
-                if tx.send(Msg::Frame(Err(e))).is_err() {
-                    return;
-                }
-            }
+        if let Some(k) = s.seek
+            && let Err(e) = video.seek_keyframe(k)
+            && tx.send(Msg::Frame(Err(e))).is_err()
+        {
+            return;
         }
         while let Some(item) = video.next_frame() {
             let msg = match item {

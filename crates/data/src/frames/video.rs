@@ -139,10 +139,10 @@ impl VideoFile {
         decode_threads: usize,
     ) -> Result<Self> {
         let err = |msg: String| DataError::frames(path, msg);
-        if let Some((w, h)) = size {
-            if w == 0 || h == 0 || w > 16384 || h > 16384 {
-                return Err(err(format!("cannot scale video frames to {w}x{h}")));
-            }
+        if let Some((w, h)) = size
+            && (w == 0 || h == 0 || w > 16384 || h > 16384)
+        {
+            return Err(err(format!("cannot scale video frames to {w}x{h}")));
         }
         // A clean "No such file or directory" from the OS rather than FFmpeg's wording.
         let meta = std::fs::metadata(path).map_err(|e| DataError::io(path, e))?;
@@ -265,10 +265,10 @@ impl VideoFile {
     /// # Errors
     /// A zero or absurd width or height.
     pub fn set_output_size(&mut self, size: Option<(u32, u32)>) -> Result<()> {
-        if let Some((w, h)) = size {
-            if w == 0 || h == 0 || w > 16384 || h > 16384 {
-                return Err(self.error(format!("cannot scale video frames to {w}x{h}")));
-            }
+        if let Some((w, h)) = size
+            && (w == 0 || h == 0 || w > 16384 || h > 16384)
+        {
+            return Err(self.error(format!("cannot scale video frames to {w}x{h}")));
         }
         self.target = size;
         self.scaler = None;

@@ -48,10 +48,10 @@ pub fn refine_corners(gray: &GrayImage, corners: &mut [Point2<f64>; 4]) {
         let (Some(a), Some(b)) = (&lines[(k + 3) % 4], &lines[k]) else {
             continue;
         };
-        if let Some(p) = a.intersect(b) {
-            if (p - original[k]).norm() <= MAX_SHIFT_PX {
-                corners[k] = p;
-            }
+        if let Some(p) = a.intersect(b)
+            && (p - original[k]).norm() <= MAX_SHIFT_PX
+        {
+            corners[k] = p;
         }
     }
 }

@@ -250,13 +250,13 @@ fn check_position_refs(raw: &Value) -> std::result::Result<(), String> {
         let prims = mesh.get("primitives").and_then(Value::as_array);
         for (j, prim) in prims.into_iter().flatten().enumerate() {
             let pos = prim.get("attributes").and_then(|a| a.get("POSITION"));
-            if let Some(pos) = pos {
-                if pos.as_u64().is_none_or(|k| k >= accessors as u64) {
-                    return Err(format!(
-                        "mesh {i} primitive {j}: POSITION refers to accessor {pos}, but the file \
+            if let Some(pos) = pos
+                && pos.as_u64().is_none_or(|k| k >= accessors as u64)
+            {
+                return Err(format!(
+                    "mesh {i} primitive {j}: POSITION refers to accessor {pos}, but the file \
                          has {accessors}"
-                    ));
-                }
+                ));
             }
         }
     }
@@ -920,11 +920,11 @@ pub(super) mod tests {
     /// A GLB container holding `json` and `bin`, each chunk padded to 4 bytes.
     pub(in crate::import) fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
         let mut j = json.as_bytes().to_vec();
-        while j.len() % 4 != 0 {
+        while !j.len().is_multiple_of(4) {
             j.push(b' ');
         }
         let mut b = bin.to_vec();
-        while b.len() % 4 != 0 {
+        while !b.len().is_multiple_of(4) {
             b.push(0);
         }
         let total = 12 + 8 + j.len() + 8 + b.len();

@@ -57,10 +57,10 @@ pub(crate) struct Lens {
 impl Lens {
     /// Makes the raster and map fit `camera` (no work when it is the camera of the last call).
     pub fn update(&mut self, camera: &Camera) -> Result<RasterCam> {
-        if let (Some(c), Some(r)) = (&self.camera, self.raster) {
-            if c == camera {
-                return Ok(r);
-            }
+        if let (Some(c), Some(r)) = (&self.camera, self.raster)
+            && c == camera
+        {
+            return Ok(r);
         }
         camera.validate()?;
         let (w, h) = (camera.width as usize, camera.height as usize);

@@ -196,10 +196,10 @@ impl Shade {
             .zip(&scene.lights.intensity)
             .enumerate()
         {
-            if let Some((floor, ceiling)) = storey {
-                if p[2] < floor - 0.3 || p[2] > ceiling + 0.3 {
-                    continue;
-                }
+            if let Some((floor, ceiling)) = storey
+                && (p[2] < floor - 0.3 || p[2] > ceiling + 0.3)
+            {
+                continue;
             }
             if inten <= 0.0 || !view.sphere_in_view(*p, RANGE) {
                 continue;
