@@ -1,11 +1,13 @@
 //! The keyframe map: frames of a posed dataset kept every few centimetres of the camera's path,
-//! each with its retrieval descriptor and its local features lifted to 3-D by its depth.
+//! each with its retrieval descriptor and its local features lifted to 3-D by its depth or, where
+//! the frames have none, by triangulation between keyframes.
 
 use crate::depth::{DepthModel, read_depth};
 use crate::retrieval::{self, Keyframe, RetrievalIndex};
+use crate::triangulate::{self, TriangulationConfig, Viewed};
 use crate::{MapError, Result};
 use data::posed::PosedImage;
-use features::{Descriptor, ExtractConfig};
+use features::{Descriptor, ExtractConfig, Features};
 use geom::{Camera, Pose};
 use image::{DynamicImage, GrayImage};
 use rayon::prelude::*;
@@ -117,13 +119,42 @@ pub fn gray_of(img: &DynamicImage) -> Result<GrayImage> {
     Ok(gray)
 }
 
-/// Builds the map of posed images with depth (keyframes chosen by [`select_keyframes`],
-/// described in parallel; `tick` is called once per keyframe done). Errors name the first
-/// frame without depth or whose image cannot be read, or of another size than `camera`.
+/// How keyframe features get their 3-D points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Lifting {
+    /// From each frame's depth image.
+    Depth(DepthModel),
+    /// Triangulated between keyframes from their poses ([`crate::triangulate`]).
+    Triangulation(TriangulationConfig),
+}
+
+impl Lifting {
+    /// Depth where every image has it, triangulation otherwise.
+    pub fn for_images(images: &[&PosedImage], depth: DepthModel) -> Lifting {
+        if !images.is_empty() && images.iter().all(|i| i.depth.is_some()) {
+            Lifting::Depth(depth)
+        } else {
+            Lifting::Triangulation(TriangulationConfig::default())
+        }
+    }
+
+    /// `depth` or `triangulation`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Lifting::Depth(_) => "depth",
+            Lifting::Triangulation(_) => "triangulation",
+        }
+    }
+}
+
+/// Builds the map of posed images (keyframes chosen by [`select_keyframes`], described in
+/// parallel; `tick` is called once per keyframe described and, when triangulating, once more
+/// per keyframe triangulated). Errors name the first frame without depth (when lifting by
+/// depth) or whose image cannot be read, or of another size than `camera`.
 pub fn build(
     images: &[&PosedImage],
     camera: &Camera,
-    depth: &DepthModel,
+    lifting: &Lifting,
     cfg: &BuildConfig,
     tick: &(dyn Fn() + Sync),
 ) -> Result<KeyframeMap> {
@@ -131,21 +162,41 @@ pub fn build(
     if chosen.is_empty() {
         return Err(MapError::Input("no frames to map".into()));
     }
-    if let Some(img) = chosen.iter().find(|i| i.depth.is_none()) {
+    if let Lifting::Depth(_) = lifting
+        && let Some(img) = chosen.iter().find(|i| i.depth.is_none())
+    {
         return Err(MapError::Image {
             path: img.image.clone(),
-            msg: "this frame has no depth image: a map lifts features to 3-D with depth".into(),
+            msg: "this frame has no depth image: lift by triangulation instead".into(),
         });
     }
-    let described: Vec<(Vec<f32>, MappedFeatures)> = chosen
+    let described: Vec<(Vec<f32>, Features)> = chosen
         .par_iter()
         .map(|img| {
-            let out = describe_keyframe(img, camera, depth, &cfg.extract);
+            let out = describe_keyframe(img, camera, &cfg.extract);
             tick();
             out
         })
         .collect::<Result<_>>()?;
-    let (thumbs, features): (Vec<_>, Vec<_>) = described.into_iter().unzip();
+    let (thumbs, found): (Vec<_>, Vec<_>) = described.into_iter().unzip();
+    let features = match lifting {
+        Lifting::Depth(model) => chosen
+            .par_iter()
+            .zip(&found)
+            .map(|(img, f)| lift_by_depth(img, f, camera, model))
+            .collect::<Result<_>>()?,
+        Lifting::Triangulation(t) => {
+            let views: Vec<Viewed> = chosen
+                .iter()
+                .zip(&found)
+                .map(|(img, features)| Viewed {
+                    features,
+                    pose: &img.frame.pose,
+                })
+                .collect();
+            triangulate::triangulate(&views, camera, cfg.extract.scale_factor, t, tick)
+        }
+    };
     let keyframes = chosen.iter().map(|i| Keyframe::of(i)).collect();
     Ok(KeyframeMap {
         camera: *camera,
@@ -155,44 +206,48 @@ pub fn build(
     })
 }
 
-/// One keyframe's retrieval descriptor and lifted features.
+/// One keyframe's retrieval descriptor and local features.
 fn describe_keyframe(
     img: &PosedImage,
     camera: &Camera,
-    depth_model: &DepthModel,
     extract: &ExtractConfig,
-) -> Result<(Vec<f32>, MappedFeatures)> {
-    let image_err = |path: &std::path::Path, msg: String| MapError::Image {
-        path: path.to_path_buf(),
+) -> Result<(Vec<f32>, Features)> {
+    let image_err = |msg: String| MapError::Image {
+        path: img.image.clone(),
         msg,
     };
-    let colour =
-        data::frames::decode_image(&img.image).map_err(|e| image_err(&img.image, e.to_string()))?;
+    let colour = data::frames::decode_image(&img.image).map_err(|e| image_err(e.to_string()))?;
     if (colour.width(), colour.height()) != (camera.width, camera.height) {
-        return Err(image_err(
-            &img.image,
-            format!(
-                "{}x{} image, the dataset's camera is {}x{}",
-                colour.width(),
-                colour.height(),
-                camera.width,
-                camera.height
-            ),
-        ));
+        return Err(image_err(format!(
+            "{}x{} image, the dataset's camera is {}x{}",
+            colour.width(),
+            colour.height(),
+            camera.width,
+            camera.height
+        )));
     }
+    let gray = gray_of(&colour)?;
+    let found = features::extract(&gray, extract).map_err(|e| image_err(e.to_string()))?;
+    Ok((retrieval::descriptor(&colour)?, found))
+}
+
+/// The features of a keyframe that its depth image lifts to 3-D.
+fn lift_by_depth(
+    img: &PosedImage,
+    found: &Features,
+    camera: &Camera,
+    model: &DepthModel,
+) -> Result<MappedFeatures> {
     let depth_path = img.depth.as_deref().expect("checked by build");
     let depth = read_depth(depth_path)?;
-    let gray = gray_of(&colour)?;
-    let found =
-        features::extract(&gray, extract).map_err(|e| image_err(&img.image, e.to_string()))?;
+    let pose: &Pose = &img.frame.pose;
     let mut out = MappedFeatures::default();
     for (kp, d) in found.keypoints.iter().zip(&found.descriptors) {
-        let pose: &Pose = &img.frame.pose;
-        if let Some(p) = depth_model.lift(&depth, camera, pose, f64::from(kp.x), f64::from(kp.y)) {
+        if let Some(p) = model.lift(&depth, camera, pose, f64::from(kp.x), f64::from(kp.y)) {
             out.keypoints.push([kp.x, kp.y]);
             out.points.push([p.x as f32, p.y as f32, p.z as f32]);
             out.descriptors.push(*d);
         }
     }
-    Ok((retrieval::descriptor(&colour)?, out))
+    Ok(out)
 }

@@ -4,7 +4,8 @@
 //!   its own (the pose of the most similar mapped frame) and the candidates refinement starts
 //!   from;
 //! - [`keyframes`]: keyframes every few centimetres of a posed dataset, their local features
-//!   ([`features`]) lifted to 3-D with the frame's depth ([`depth`]);
+//!   ([`features`]) lifted to 3-D with the frame's depth ([`depth`]) or, for photos without
+//!   depth, triangulated between keyframes ([`triangulate`]);
 //! - [`file`]: the map on disk (versioned, checksummed, written atomically);
 //! - [`pnp`]: P3P + RANSAC + Levenberg-Marquardt with a covariance;
 //! - [`refine`]: a query image's pose from the map, starting from a coarse pose or retrieval,
@@ -18,7 +19,8 @@ pub mod keyframes;
 pub mod pnp;
 pub mod refine;
 pub mod retrieval;
+pub mod triangulate;
 
 pub use error::{MapError, Result};
-pub use keyframes::{BuildConfig, KeyframeMap};
+pub use keyframes::{BuildConfig, KeyframeMap, Lifting};
 pub use refine::{Coarse, Fallback, RefineConfig, Refinement};

@@ -11,7 +11,7 @@ use crate::{MapError, Result, retrieval};
 use features::MatchConfig;
 use geom::Pose;
 use image::DynamicImage;
-use nalgebra::{Matrix3, Vector2, Vector3};
+use nalgebra::{Matrix3, Point2, Vector2, Vector3};
 use std::time::Instant;
 
 /// A pose from elsewhere (the network, a filter) that refinement starts from and is checked
@@ -148,9 +148,11 @@ pub struct Refinement {
     pub inliers: usize,
     /// Matches PnP was given.
     pub matches: usize,
-    /// Covariance of the refined position, m², when refined.
+    /// Covariance of the refined position, m², when refined; on a fallback without a coarse
+    /// pose, retrieval's (the spread of the most similar keyframes); `None` on a fallback to the
+    /// coarse pose, whose own uncertainty stands.
     pub cov_pos_m2: Option<Matrix3<f64>>,
-    /// Covariance of the refined rotation (a small rotation vector), rad², when refined.
+    /// Covariance of the refined rotation (a small rotation vector), rad², as `cov_pos_m2`.
     pub cov_rot_rad2: Option<Matrix3<f64>>,
     /// Why the coarse pose was kept.
     pub fallback: Option<Fallback>,
@@ -190,9 +192,8 @@ impl KeyframeMap {
         } else {
             self.camera.resized(img.width(), img.height())
         };
-        let hits = self
-            .retrieval
-            .query(&retrieval::descriptor(img)?, cfg.retrieved.max(1));
+        let thumb = retrieval::descriptor(img)?;
+        let hits = self.retrieval.query(&thumb, cfg.retrieved.max(1));
         let mut candidates: Vec<usize> = hits.iter().map(|h| h.index).collect();
         if let Some(c) = coarse {
             for k in self.nearest_keyframes(&c.pose, cfg.near_coarse) {
@@ -201,7 +202,22 @@ impl KeyframeMap {
                 }
             }
         }
-        let fallback_pose = coarse.map_or(self.retrieval.keyframes[candidates[0]].pose, |c| c.pose);
+        // What a fallback answers: the coarse pose, or retrieval's with its spread as its
+        // uncertainty (a fallback must not claim certainty).
+        let (fallback_pose, fallback_cov) = match coarse {
+            Some(c) => (c.pose, None),
+            None => {
+                let r = self.retrieval.localize_descriptor(&thumb)?;
+                let rot = r.sigma_rot_deg.to_radians();
+                (
+                    r.pose,
+                    Some((
+                        Matrix3::identity() * (r.sigma_pos_m * r.sigma_pos_m / 3.0),
+                        Matrix3::identity() * (rot * rot / 3.0),
+                    )),
+                )
+            }
+        };
         let gray = gray_of(img)?;
         let query = features::extract(&gray, &self.extract)
             .map_err(|e| MapError::Input(format!("query features: {e}")))?;
@@ -214,8 +230,8 @@ impl KeyframeMap {
             refined: false,
             inliers,
             matches,
-            cov_pos_m2: None,
-            cov_rot_rad2: None,
+            cov_pos_m2: fallback_cov.map(|c| c.0),
+            cov_rot_rad2: fallback_cov.map(|c| c.1),
             fallback: Some(why),
             candidates,
             timings,
@@ -224,6 +240,24 @@ impl KeyframeMap {
             return Ok(fallback(Fallback::NoFeatures, 0, 0, candidates, timings));
         }
         let t1 = Instant::now();
+        // PnP models a pinhole: the query's corners are moved to where an undistorted lens
+        // would have put them.
+        let pixels: Vec<Vector2<f64>> = query
+            .keypoints
+            .iter()
+            .map(|kp| {
+                let p = Point2::new(f64::from(kp.x), f64::from(kp.y));
+                if camera.dist.is_zero() {
+                    p.coords
+                } else {
+                    camera.undistort_pixel(&p).coords
+                }
+            })
+            .collect();
+        let query = Query {
+            features: &query,
+            pixels: &pixels,
+        };
         let mut corr = Vec::new();
         for &k in &candidates {
             self.match_keyframe(&query, k, cfg, &mut corr);
@@ -316,18 +350,19 @@ impl KeyframeMap {
     /// Appends the correspondences of the query's features matched to keyframe `k`'s.
     fn match_keyframe(
         &self,
-        query: &features::Features,
+        query: &Query,
         k: usize,
         cfg: &RefineConfig,
         corr: &mut Vec<Correspondence>,
     ) {
         let kf = &self.features[k];
-        for m in features::match_descriptors(&query.descriptors, &kf.descriptors, &cfg.matching) {
-            let kp = &query.keypoints[m.query];
+        let found = query.features;
+        for m in features::match_descriptors(&found.descriptors, &kf.descriptors, &cfg.matching) {
+            let kp = &found.keypoints[m.query];
             let p = kf.points[m.train];
             corr.push(Correspondence {
                 world: Vector3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])),
-                pixel: Vector2::new(f64::from(kp.x), f64::from(kp.y)),
+                pixel: query.pixels[m.query],
                 sigma_px: f64::from(self.extract.scale_factor).powi(i32::from(kp.level)),
             });
         }
@@ -346,6 +381,12 @@ impl KeyframeMap {
         near.sort_by(|a, b| a.0.total_cmp(&b.0));
         near.into_iter().take(k).map(|(_, i)| i).collect()
     }
+}
+
+/// A query's features and their undistorted pixels.
+struct Query<'a> {
+    features: &'a features::Features,
+    pixels: &'a [Vector2<f64>],
 }
 
 /// What PnP made of a query's matches.

@@ -183,8 +183,12 @@ impl RetrievalIndex {
     /// angle of the next [`SPREAD_K`] - 1 most similar frames to it (near-twins agree; a frame
     /// that looks like several places does not).
     pub fn localize(&self, img: &DynamicImage) -> Result<Retrieved> {
-        let d = descriptor(img)?;
-        let hits = self.query(&d, SPREAD_K);
+        self.localize_descriptor(&descriptor(img)?)
+    }
+
+    /// [`Self::localize`] of an image's descriptor ([`descriptor`]).
+    pub fn localize_descriptor(&self, d: &[f32]) -> Result<Retrieved> {
+        let hits = self.query(d, SPREAD_K);
         let best = *hits
             .first()
             .ok_or_else(|| MapError::Input("the retrieval index is empty".into()))?;

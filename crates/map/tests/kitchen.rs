@@ -24,8 +24,14 @@ fn kitchen_map() -> (PosedDataset, KeyframeMap) {
     let mapped: Vec<&PosedImage> = ds.images[..40].iter().chain(&ds.images[60..100]).collect();
     let camera = ds.require_camera().unwrap();
     let depth = DepthModel::for_dataset(&ds, &camera);
-    let km =
-        map::keyframes::build(&mapped, &camera, &depth, &BuildConfig::default(), &|| {}).unwrap();
+    let km = map::keyframes::build(
+        &mapped,
+        &camera,
+        &map::Lifting::Depth(depth),
+        &BuildConfig::default(),
+        &|| {},
+    )
+    .unwrap();
     (ds, km)
 }
 

@@ -1,5 +1,6 @@
-//! `indoorloc map build`: the keyframe map of a posed dataset with depth (`map::keyframes`),
-//! which `localize --map` refines poses against.
+//! `indoorloc map build`: the keyframe map of a posed dataset (`map::keyframes`), its features
+//! lifted to 3-D by depth or triangulated between keyframes, which `localize --map` refines
+//! poses against.
 
 use crate::output::{print_json, print_text};
 use crate::progress;
@@ -7,8 +8,9 @@ use anyhow::{Result, bail};
 use clap::{Args, Subcommand};
 use data::blocks::BlockSplit;
 use data::posed::{self, SplitPlan};
-use map::BuildConfig;
 use map::depth::DepthModel;
+use map::triangulate::TriangulationConfig;
+use map::{BuildConfig, Lifting};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -22,14 +24,15 @@ pub struct MapArgs {
 
 #[derive(Subcommand, Debug)]
 enum Action {
-    /// Build the map of a posed RGB-D dataset (7-Scenes, TUM RGB-D, native with depth).
+    /// Build the map of a posed dataset: RGB-D (7-Scenes, TUM RGB-D, native with depth) or
+    /// photos alone (COLMAP, NeRF transforms, Cambridge), triangulated.
     Build(BuildArgs),
 }
 
 /// Arguments of `indoorloc map build`.
 #[derive(Args, Debug)]
 struct BuildArgs {
-    /// A posed dataset with depth, in any layout `data` opens.
+    /// A posed dataset, in any layout `data` opens.
     #[arg(long, value_name = "DATASET")]
     data: PathBuf,
     /// The map file to write (atomically).
@@ -51,9 +54,21 @@ struct BuildArgs {
     /// Local features per keyframe.
     #[arg(long, default_value_t = BuildConfig::default().extract.max_features)]
     features: usize,
+    /// How features get their 3-D points: `depth` (each frame's depth image), `triangulation`
+    /// (between keyframes, from their poses) or `auto` (depth when every frame has it).
+    #[arg(long, value_enum, default_value_t = LiftArg::Auto)]
+    lift: LiftArg,
     /// Print one JSON document instead of a table.
     #[arg(long)]
     json: bool,
+}
+
+/// `--lift`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum LiftArg {
+    Auto,
+    Depth,
+    Triangulation,
 }
 
 /// What `map build` prints.
@@ -64,6 +79,8 @@ struct BuildOutput {
     /// The frames mapped (split description).
     frames: String,
     keyframes: usize,
+    /// `depth` or `triangulation`.
+    lifting: &'static str,
     points: usize,
     bytes: u64,
     seconds: f64,
@@ -101,13 +118,22 @@ fn build(args: &BuildArgs) -> Result<()> {
         ..BuildConfig::default()
     };
     cfg.extract.max_features = args.features;
+    let depth = DepthModel::for_dataset(&ds, &camera);
+    let lifting = match args.lift {
+        LiftArg::Auto => Lifting::for_images(&images, depth),
+        LiftArg::Depth => Lifting::Depth(depth),
+        LiftArg::Triangulation => Lifting::Triangulation(TriangulationConfig::default()),
+    };
     let keyframes = map::keyframes::select_keyframes(&images, &cfg).len();
-    let pb = progress::bar(keyframes as u64, "keyframes");
+    let passes = match lifting {
+        Lifting::Depth(_) => 1,
+        Lifting::Triangulation(_) => 2,
+    };
+    let pb = progress::bar(passes * keyframes as u64, "keyframes");
     if args.json {
         pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
-    let depth = DepthModel::for_dataset(&ds, &camera);
-    let km = map::keyframes::build(&images, &camera, &depth, &cfg, &|| pb.inc(1))?;
+    let km = map::keyframes::build(&images, &camera, &lifting, &cfg, &|| pb.inc(1))?;
     pb.finish_and_clear();
     map::file::save(&km, &args.out)?;
     let out = BuildOutput {
@@ -115,6 +141,7 @@ fn build(args: &BuildArgs) -> Result<()> {
         dataset: ds.name(),
         frames,
         keyframes: km.len(),
+        lifting: lifting.name(),
         points: km.points(),
         bytes: std::fs::metadata(&args.out)?.len(),
         seconds: t.elapsed().as_secs_f64(),
@@ -123,10 +150,11 @@ fn build(args: &BuildArgs) -> Result<()> {
         print_json(&out)
     } else {
         print_text(&format!(
-            "map {}: {} keyframes, {} points, {:.1} MB, {:.1} s ({}, {})\n",
+            "map {}: {} keyframes, {} points ({}), {:.1} MB, {:.1} s ({}, {})\n",
             out.map.display(),
             out.keyframes,
             out.points,
+            out.lifting,
             out.bytes as f64 / 1e6,
             out.seconds,
             out.dataset,

@@ -94,7 +94,13 @@ fn bench_split(data: &Path, split: BlockSplit, peer: &Result<Peer>) -> Result<Re
     }
     let t = Instant::now();
     let depth = DepthModel::for_dataset(&ds, &camera);
-    let km = map::keyframes::build(&mapped, &camera, &depth, &BuildConfig::default(), &|| {})?;
+    let km = map::keyframes::build(
+        &mapped,
+        &camera,
+        &map::Lifting::Depth(depth),
+        &BuildConfig::default(),
+        &|| {},
+    )?;
     let map_build_s = t.elapsed().as_secs_f64();
     let tmp = tempfile::tempdir()?;
     let path = tmp.path().join("bench.map");

@@ -85,7 +85,9 @@ pub fn refine_test(
         pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
     let depth = DepthModel::for_dataset(&ds, &camera);
-    let km = map::keyframes::build(&mapped, &camera, &depth, &cfg, &|| pb.inc(1))?;
+    let km = map::keyframes::build(&mapped, &camera, &map::Lifting::Depth(depth), &cfg, &|| {
+        pb.inc(1)
+    })?;
     pb.finish_and_clear();
     map::file::save(&km, &out.join(MAP_FILE))?;
     let build_s = t.elapsed().as_secs_f64();

@@ -388,7 +388,9 @@ fn keyframe_map(
         pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
     let depth = DepthModel::for_dataset(ds, &camera);
-    let km = map::keyframes::build(mapped, &camera, &depth, &cfg, &|| pb.inc(1))?;
+    let km = map::keyframes::build(mapped, &camera, &map::Lifting::Depth(depth), &cfg, &|| {
+        pb.inc(1)
+    })?;
     pb.finish_and_clear();
     Ok(Some((km, t.elapsed().as_secs_f64())))
 }
