@@ -1,7 +1,9 @@
 //! `indoorloc bench refine`: centimetre refinement on real photos (`map` + `features`), beside
 //! OpenCV's SIFT + PnP (`sift_pnp.py`) on the same split in the same run: the map built from the
 //! mapped (training and validation) blocks, each held-out frame refined from retrieval alone on
-//! one thread; accuracy, ms per query and the map's build time and size.
+//! one thread; accuracy, ms per query and the map's build time and size. A second map of the
+//! same frames with the depth images ignored (features triangulated between keyframes) shows
+//! what photos alone give.
 
 use super::{Peer, VsPeer};
 use anyhow::{Context, Result, bail};
@@ -44,6 +46,12 @@ pub struct RefineFigures {
     ms_features: f64,
     ms_matching: f64,
     ms_pnp: f64,
+    /// The same queries against a map of the same frames with their depth ignored
+    /// (triangulated features): median errors, share within (5 cm, 5°), points.
+    triangulated_median_pos_m: f64,
+    triangulated_median_rot_deg: f64,
+    triangulated_acc_5cm_5deg: f64,
+    triangulated_points: usize,
     peer_median_pos_m: Option<f64>,
     peer_median_rot_deg: Option<f64>,
     peer_acc_5cm_5deg: Option<f64>,
@@ -110,24 +118,25 @@ fn bench_split(data: &Path, split: BlockSplit, peer: &Result<Peer>) -> Result<Re
         .par_iter()
         .map(|&i| data::frames::decode_image(&ds.images[i].image))
         .collect::<std::result::Result<_, _>>()?;
-    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-    let cfg = RefineConfig::default();
-    let mut results = Vec::with_capacity(images.len());
-    let mut ms = Vec::with_capacity(images.len());
-    one.install(|| -> Result<()> {
-        for img in &images {
-            let t = Instant::now();
-            let r = km.refine(img, None, &cfg)?;
-            ms.push(t.elapsed().as_secs_f64() * 1e3);
-            results.push(r);
-        }
-        Ok(())
-    })?;
-    let (mut pos, mut rot) = (Vec::new(), Vec::new());
-    for (r, &i) in results.iter().zip(&tests) {
-        pos.push(position_error(&ds.images[i].frame.pose, &r.pose));
-        rot.push(rotation_error_deg(&ds.images[i].frame.pose, &r.pose));
-    }
+    let truth: Vec<&geom::Pose> = tests.iter().map(|&i| &ds.images[i].frame.pose).collect();
+    let Queried {
+        results,
+        ms,
+        pos,
+        rot,
+    } = query_all(&km, &images, &truth)?;
+    let triangulated = map::keyframes::build(
+        &mapped,
+        &camera,
+        &map::Lifting::Triangulation(map::triangulate::TriangulationConfig::default()),
+        &BuildConfig::default(),
+        &|| {},
+    )?;
+    let Queried {
+        pos: tri_pos,
+        rot: tri_rot,
+        ..
+    } = query_all(&triangulated, &images, &truth)?;
     let median = |v: Vec<f64>| Stats::of(&v).map(|s| s.median).unwrap_or(f64::NAN);
     let ours_ms = median(ms.clone());
     let peer_out = match peer {
@@ -155,6 +164,10 @@ fn bench_split(data: &Path, split: BlockSplit, peer: &Result<Peer>) -> Result<Re
         ms_features: median(results.iter().map(|r| r.timings.features_ms).collect()),
         ms_matching: median(results.iter().map(|r| r.timings.matching_ms).collect()),
         ms_pnp: median(results.iter().map(|r| r.timings.pnp_ms).collect()),
+        triangulated_median_pos_m: median(tri_pos.clone()),
+        triangulated_median_rot_deg: median(tri_rot.clone()),
+        triangulated_acc_5cm_5deg: geom::metrics::accuracy(&tri_pos, &tri_rot, 0.05, 5.0),
+        triangulated_points: triangulated.points(),
         peer_median_pos_m: peer_fig.as_ref().map(|p| p.median_pos_m),
         peer_median_rot_deg: peer_fig.as_ref().map(|p| p.median_rot_deg),
         peer_acc_5cm_5deg: peer_fig.as_ref().map(|p| p.acc_5cm_5deg),
@@ -164,6 +177,52 @@ fn bench_split(data: &Path, split: BlockSplit, peer: &Result<Peer>) -> Result<Re
             peer_fig.as_ref().map(|p| p.ms_per_query),
             note,
         ),
+    })
+}
+
+/// What [`query_all`] measured, query by query.
+struct Queried {
+    results: Vec<map::Refinement>,
+    ms: Vec<f64>,
+    pos: Vec<f64>,
+    rot: Vec<f64>,
+}
+
+/// Each image refined from retrieval alone on one thread, timed, and its errors against
+/// `truth`.
+fn query_all(
+    km: &map::KeyframeMap,
+    images: &[image::DynamicImage],
+    truth: &[&geom::Pose],
+) -> Result<Queried> {
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let cfg = RefineConfig::default();
+    let mut results = Vec::with_capacity(images.len());
+    let mut ms = Vec::with_capacity(images.len());
+    one.install(|| -> Result<()> {
+        for img in images {
+            let t = Instant::now();
+            let r = km.refine(img, None, &cfg)?;
+            ms.push(t.elapsed().as_secs_f64() * 1e3);
+            results.push(r);
+        }
+        Ok(())
+    })?;
+    let pos = results
+        .iter()
+        .zip(truth)
+        .map(|(r, t)| position_error(t, &r.pose))
+        .collect();
+    let rot = results
+        .iter()
+        .zip(truth)
+        .map(|(r, t)| rotation_error_deg(t, &r.pose))
+        .collect();
+    Ok(Queried {
+        results,
+        ms,
+        pos,
+        rot,
     })
 }
 
@@ -294,6 +353,13 @@ pub fn table(rows: &[RefineFigures]) -> String {
             r.ms_matching,
             r.ms_pnp,
             100.0 * r.refined
+        ));
+        s.push_str(&format!(
+            "        photos alone (depth ignored, {} triangulated points): {:.4} m, {:.2}°, {:.2} within (5 cm, 5°)\n",
+            r.triangulated_points,
+            r.triangulated_median_pos_m,
+            r.triangulated_median_rot_deg,
+            r.triangulated_acc_5cm_5deg
         ));
         if let Some(n) = &r.vs.peer_note {
             s.push_str(&format!("        peer: {n}\n"));
