@@ -31,4 +31,7 @@ pub use error::{CutError, Result};
 pub use path::{PathKind, pixel_indices};
 pub use rhythm::{MAX_COLUMNS, RhythmImage};
 pub use score::{Gold, Score, score_hard};
-pub use source::{Collect, Detection, detect_input, detect_thumbnails, frames_path};
+pub use source::{
+    Collect, Decoding, Detection, detect_input, detect_input_decoded, detect_thumbnails,
+    frames_path,
+};

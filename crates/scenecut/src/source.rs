@@ -18,6 +18,34 @@ pub struct Collect {
     pub rhythm: bool,
 }
 
+/// How a video is decoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Decoding {
+    /// Decoders side by side on stretches between keyframes (0: one per core, at most 8; 1: a
+    /// single decoder, itself on one thread).
+    pub workers: usize,
+    /// Skip the loop (deblocking) filter ([`data::frames::VideoFile::open_fast`]).
+    pub fast: bool,
+}
+
+impl Default for Decoding {
+    /// The fastest: a decoder per core, no loop filter.
+    fn default() -> Self {
+        Decoding {
+            workers: 0,
+            fast: true,
+        }
+    }
+}
+
+impl Decoding {
+    /// As the peers decode (PySceneDetect, `ffmpeg -threads 1`): one thread, every filter.
+    pub const FULL_ONE_THREAD: Decoding = Decoding {
+        workers: 1,
+        fast: false,
+    };
+}
+
 /// The outcome of a whole input.
 #[derive(Debug)]
 pub struct Detection {
@@ -68,19 +96,23 @@ type Opened = (Box<dyn FrameSource + Send>, Option<(u32, u32)>);
 
 /// Opens `input` as a frame source whose frames are already thumbnails where the source can
 /// make them itself (video), with the thumbnail size when known up front.
-fn open(input: &Path, cfg: &Config) -> Result<Opened> {
+fn open(input: &Path, cfg: &Config, decoding: Decoding) -> Result<Opened> {
     let path = frames_path(input);
     #[cfg(feature = "video")]
     if path.is_file() && is_video(&path) {
         // Stretches decoded side by side where the file allows it, else one decoder.
-        let workers = std::thread::available_parallelism().map_or(1, |n| n.get().min(8));
-        if let Some(mut video) = data::frames::ParallelVideo::open(&path, true, workers)? {
+        let workers = match decoding.workers {
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get().min(8)),
+            n => n,
+        };
+        if let Some(mut video) = data::frames::ParallelVideo::open(&path, decoding.fast, workers)? {
             let (w, h) = video.frame_size();
             let thumb = cfg.thumb_size(w, h);
             video.set_output_size(Some(thumb));
             return Ok((Box::new(video), Some(thumb)));
         }
-        let mut video = data::frames::VideoFile::open_fast(&path)?;
+        let threads = usize::from(workers == 1);
+        let mut video = data::frames::VideoFile::open_with(&path, None, decoding.fast, threads)?;
         let (w, h) = video.frame_size();
         let thumb = cfg.thumb_size(w, h);
         video.set_output_size(Some(thumb))?;
@@ -89,7 +121,7 @@ fn open(input: &Path, cfg: &Config) -> Result<Opened> {
     if path.is_dir() {
         return Ok((Box::new(ImageFolder::open(&path)?), None));
     }
-    let _ = cfg;
+    let _ = (cfg, decoding);
     Ok((data::frames::open(&path)?, None))
 }
 
@@ -116,11 +148,25 @@ pub fn detect_input(
     collect: Collect,
     progress: &mut dyn FnMut(u64, Option<u64>),
 ) -> Result<Detection> {
+    detect_input_decoded(input, cfg, Decoding::default(), collect, progress)
+}
+
+/// [`detect_input`] with a video decoded as `decoding` says.
+///
+/// # Errors
+/// As [`detect_input`].
+pub fn detect_input_decoded(
+    input: &Path,
+    cfg: &Config,
+    decoding: Decoding,
+    collect: Collect,
+    progress: &mut dyn FnMut(u64, Option<u64>),
+) -> Result<Detection> {
     cfg.validate()?;
     // Timed from before opening: for a video that includes the pass over its packets that
     // plans the parallel decoding (PySceneDetect's figure leaves its `open_video` out).
     let start = Instant::now();
-    let (source, known_thumb) = open(input, cfg)?;
+    let (source, known_thumb) = open(input, cfg, decoding)?;
     let (video_fps, expected, source_path) =
         (source.fps(), source.len_hint(), source.path().to_path_buf());
     let mut state: Option<(Detector, Option<RhythmImage>, (u32, u32))> = None;

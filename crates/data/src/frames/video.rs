@@ -131,8 +131,13 @@ impl VideoFile {
         Self::open_with(path, None, true, 0)
     }
 
-    /// The opener behind the public ones; `decode_threads = 0` picks the count from the cores.
-    pub(crate) fn open_with(
+    /// Like [`open_scaled`](Self::open_scaled) with the decoder's settings chosen: `fast` as
+    /// [`open_fast`](Self::open_fast), `decode_threads` FFmpeg threads (0: from the cores).
+    /// Benchmarks use it to decode as a peer does (one thread, the loop filter on).
+    ///
+    /// # Errors
+    /// As [`open_scaled`](Self::open_scaled).
+    pub fn open_with(
         path: &Path,
         size: Option<(u32, u32)>,
         fast: bool,
