@@ -483,7 +483,7 @@ fn run_metrics_peer(args: &BenchArgs, gt: &Path, est: &Path) -> Result<f64> {
 
 /// `rel` under the shared folder (`$INDOORLOC_SHARED`, `../shared` or `shared`, first found)
 /// when `is_there` holds for its `marker` (the file or folder that says the data is there).
-fn shared_data(rel: &str, marker: &str, is_there: fn(&Path) -> bool) -> Option<PathBuf> {
+pub(crate) fn shared_data(rel: &str, marker: &str, is_there: fn(&Path) -> bool) -> Option<PathBuf> {
     [
         std::env::var_os("INDOORLOC_SHARED").map(|d| Path::new(&d).join(rel)),
         Some(Path::new("../shared").join(rel)),

@@ -1,6 +1,7 @@
 //! `indoorloc study NAME`: reproducible experiments, each a table like a paper's, written as
 //! `DIR/report.html` with `--json` rows.
 
+mod all;
 pub(crate) mod cuts;
 mod markers_distance;
 mod place_split;
@@ -51,6 +52,9 @@ enum Study {
     /// Marker pose error against distance and viewing angle, for two camera resolutions, on
     /// a marker rendered on a wall.
     MarkersDistance(markers_distance::MarkersDistanceArgs),
+    /// Every study in turn (each in its own process), headline figures beside those the docs
+    /// record; exits 2 when a study fails or a figure drifted past its tolerance.
+    All(all::AllArgs),
 }
 
 /// Runs `indoorloc study`.
@@ -64,6 +68,7 @@ pub fn run(args: &StudyArgs) -> Result<()> {
         Study::PlaceSplit(a) => place_split::run(a),
         Study::MarkersDistance(a) => markers_distance::run(a),
         Study::Real(a) => real::run(a),
+        Study::All(a) => all::run(a),
     }
 }
 
