@@ -39,7 +39,8 @@ const WALK_FPS: f64 = 2.5;
 /// The classifier's view in this study: many walks at a small view rather than few at a large
 /// one, since a place unseen in training cannot be recognised at any resolution. At 64x48 for
 /// 6 epochs the held-out walks' places (session split) were right in 68 % of frames with 9600
-/// training frames, 77 % with 19200 (the quick run), 85 % with 38400, 90.6 % with 76800 (37 min,
+/// training frames, 77 % with 19200 (the quick run; 84 % with the third direction and reframing,
+/// `study all --quick` at 7c5f8d3), 85 % with 38400, 90.6 % with 76800 (37 min,
 /// 5.6 GB on two cores) and 92.8 % with 153600 (the full run: 74 min, 9.5 GB); with a third
 /// direction per corridor (`across`, see `synth::trajectory::Direction`), 94.7 % (42 min
 /// alone on the machine, 10.4 GB), 95.0–95.2 % with the live walk filter and 96.0–96.2 % with
