@@ -6,7 +6,7 @@ use crate::depth::{DepthModel, read_depth};
 use crate::retrieval::{self, Keyframe, RetrievalIndex};
 use crate::triangulate::{self, TriangulationConfig, Viewed};
 use crate::{MapError, Result};
-use data::posed::PosedImage;
+use data::posed::{PosedDataset, PosedImage};
 use features::{Descriptor, ExtractConfig, Features};
 use geom::{Camera, Pose};
 use image::{DynamicImage, GrayImage};
@@ -129,10 +129,17 @@ pub enum Lifting {
 }
 
 impl Lifting {
-    /// Depth where every image has it, triangulation otherwise.
-    pub fn for_images(images: &[&PosedImage], depth: DepthModel) -> Lifting {
+    /// Lifting by a dataset's depth images, as its layout stores them
+    /// ([`DepthModel::for_dataset`]).
+    pub fn depth_of(ds: &PosedDataset, camera: &Camera) -> Lifting {
+        Lifting::Depth(DepthModel::for_dataset(ds, camera))
+    }
+
+    /// [`Self::depth_of`] where every one of `images` (of `ds`) has depth, triangulation
+    /// otherwise.
+    pub fn for_images(images: &[&PosedImage], ds: &PosedDataset, camera: &Camera) -> Lifting {
         if !images.is_empty() && images.iter().all(|i| i.depth.is_some()) {
-            Lifting::Depth(depth)
+            Lifting::depth_of(ds, camera)
         } else {
             Lifting::Triangulation(TriangulationConfig::default())
         }

@@ -31,7 +31,7 @@ fn photos_without_depth_map_by_triangulation_and_refine_held_out_photos() {
         ..BuildConfig::default()
     };
     assert_eq!(
-        Lifting::for_images(&mapped, map::depth::DepthModel::for_dataset(&ds, &camera)),
+        Lifting::for_images(&mapped, &ds, &camera),
         Lifting::Triangulation(TriangulationConfig::default())
     );
     let lifting = Lifting::Triangulation(TriangulationConfig::default());

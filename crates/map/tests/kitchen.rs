@@ -7,7 +7,6 @@ use data::posed::{self, PosedDataset, PosedImage};
 use geom::Pose;
 use geom::metrics::{position_error, rotation_error_deg};
 use image::{DynamicImage, Rgb, RgbImage};
-use map::depth::DepthModel;
 use map::{BuildConfig, Coarse, Fallback, KeyframeMap, RefineConfig};
 use std::path::{Path, PathBuf};
 
@@ -23,11 +22,10 @@ fn kitchen_map() -> (PosedDataset, KeyframeMap) {
     let ds = posed::open(&root).unwrap_or_else(|e| panic!("{}: {e}", root.display()));
     let mapped: Vec<&PosedImage> = ds.images[..40].iter().chain(&ds.images[60..100]).collect();
     let camera = ds.require_camera().unwrap();
-    let depth = DepthModel::for_dataset(&ds, &camera);
     let km = map::keyframes::build(
         &mapped,
         &camera,
-        &map::Lifting::Depth(depth),
+        &map::Lifting::depth_of(&ds, &camera),
         &BuildConfig::default(),
         &|| {},
     )

@@ -6,7 +6,6 @@
 use data::posed::{self, PosedImage};
 use geom::Pose;
 use image::RgbImage;
-use map::depth::DepthModel;
 use map::{BuildConfig, RefineConfig};
 use nalgebra::Vector3;
 use std::path::Path;
@@ -52,11 +51,10 @@ fn kitchen_map() -> (posed::PosedDataset, map::KeyframeMap) {
     let ds = posed::open(&kitchen).unwrap_or_else(|e| panic!("{}: {e}", kitchen.display()));
     let mapped: Vec<&PosedImage> = ds.images[..40].iter().chain(&ds.images[60..100]).collect();
     let camera = ds.require_camera().unwrap();
-    let depth = DepthModel::for_dataset(&ds, &camera);
     let km = map::keyframes::build(
         &mapped,
         &camera,
-        &map::Lifting::Depth(depth),
+        &map::Lifting::depth_of(&ds, &camera),
         &BuildConfig::default(),
         &|| {},
     )

@@ -8,7 +8,6 @@ use anyhow::{Result, bail};
 use clap::{Args, Subcommand};
 use data::blocks::BlockSplit;
 use data::posed::{self, SplitPlan};
-use map::depth::DepthModel;
 use map::triangulate::TriangulationConfig;
 use map::{BuildConfig, Lifting};
 use serde::Serialize;
@@ -118,10 +117,9 @@ fn build(args: &BuildArgs) -> Result<()> {
         ..BuildConfig::default()
     };
     cfg.extract.max_features = args.features;
-    let depth = DepthModel::for_dataset(&ds, &camera);
     let lifting = match args.lift {
-        LiftArg::Auto => Lifting::for_images(&images, depth),
-        LiftArg::Depth => Lifting::Depth(depth),
+        LiftArg::Auto => Lifting::for_images(&images, &ds, &camera),
+        LiftArg::Depth => Lifting::depth_of(&ds, &camera),
         LiftArg::Triangulation => Lifting::Triangulation(TriangulationConfig::default()),
     };
     let keyframes = map::keyframes::select_keyframes(&images, &cfg).len();

@@ -11,7 +11,6 @@ use data::blocks::BlockSplit;
 use data::native::SplitName;
 use data::posed::{self, SplitPlan};
 use geom::metrics::{Stats, position_error, rotation_error_deg};
-use map::depth::DepthModel;
 use map::{BuildConfig, RefineConfig};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -101,11 +100,10 @@ fn bench_split(data: &Path, split: BlockSplit, peer: &Result<Peer>) -> Result<Re
         );
     }
     let t = Instant::now();
-    let depth = DepthModel::for_dataset(&ds, &camera);
     let km = map::keyframes::build(
         &mapped,
         &camera,
-        &map::Lifting::Depth(depth),
+        &map::Lifting::depth_of(&ds, &camera),
         &BuildConfig::default(),
         &|| {},
     )?;

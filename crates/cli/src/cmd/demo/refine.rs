@@ -11,7 +11,6 @@ use data::native::SplitName;
 use data::posed::{self, SplitPlan};
 use geom::Pose;
 use geom::metrics::{position_error, rotation_error_deg};
-use map::depth::DepthModel;
 use map::{BuildConfig, Coarse, RefineConfig};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -84,10 +83,8 @@ pub fn refine_test(
     if !show {
         pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
-    let depth = DepthModel::for_dataset(&ds, &camera);
-    let km = map::keyframes::build(&mapped, &camera, &map::Lifting::Depth(depth), &cfg, &|| {
-        pb.inc(1)
-    })?;
+    let lifting = map::Lifting::depth_of(&ds, &camera);
+    let km = map::keyframes::build(&mapped, &camera, &lifting, &cfg, &|| pb.inc(1))?;
     pb.finish_and_clear();
     map::file::save(&km, &out.join(MAP_FILE))?;
     let build_s = t.elapsed().as_secs_f64();

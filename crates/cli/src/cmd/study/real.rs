@@ -25,7 +25,6 @@ use geom::metrics::{Stats, position_error, rotation_error_deg};
 use image::DynamicImage;
 use learn::seq::{SeqConfig, SeqLocalizer, SeqMeta};
 use learn::{Estimate, Localizer, TrainConfig};
-use map::depth::DepthModel;
 use map::retrieval::{Keyframe, RetrievalIndex};
 use map::{BuildConfig, Coarse, KeyframeMap, RefineConfig};
 use rayon::prelude::*;
@@ -387,10 +386,8 @@ fn keyframe_map(
     if !show {
         pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
-    let depth = DepthModel::for_dataset(ds, &camera);
-    let km = map::keyframes::build(mapped, &camera, &map::Lifting::Depth(depth), &cfg, &|| {
-        pb.inc(1)
-    })?;
+    let lifting = map::Lifting::depth_of(ds, &camera);
+    let km = map::keyframes::build(mapped, &camera, &lifting, &cfg, &|| pb.inc(1))?;
     pb.finish_and_clear();
     Ok(Some((km, t.elapsed().as_secs_f64())))
 }
