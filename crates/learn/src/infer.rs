@@ -186,19 +186,38 @@ impl Localizer {
 
     /// Poses of many views, run in batches of [`CHUNK`] images.
     pub fn predict_batch(&self, views: &[View], mc_passes: usize) -> Result<Vec<Estimate>> {
-        let outputs = predict_outputs(
+        let weights = self.meta.sigma_weights();
+        Ok(self
+            .outputs(views, mc_passes)?
+            .iter()
+            .map(|o| o.estimate(&self.meta.coding, &weights))
+            .collect())
+    }
+
+    /// Each view's pose and the variances its sigma is made of, before the calibrated weights
+    /// ([`SigmaParts`]: what each source of uncertainty says on its own), with this localizer's
+    /// TTA setting and `mc_passes` MC passes.
+    pub fn sigma_parts(&self, views: &[View], mc_passes: usize) -> Result<Vec<(Pose, SigmaParts)>> {
+        Ok(self
+            .outputs(views, mc_passes)?
+            .iter()
+            .map(|o| {
+                let (pose, parts, _) = o.parts(&self.meta.coding);
+                (pose, parts)
+            })
+            .collect())
+    }
+
+    /// The network's outputs for `views`, [`CHUNK`] images at a time.
+    fn outputs(&self, views: &[View], mc_passes: usize) -> Result<Vec<ImageOutputs>> {
+        predict_outputs(
             &self.net,
             views,
             self.meta.input,
             &self.meta.view,
             Passes::new(self.tta, mc_passes, self.meta.dropout, self.seed),
             &self.device,
-        )?;
-        let weights = self.meta.sigma_weights();
-        Ok(outputs
-            .iter()
-            .map(|o| o.estimate(&self.meta.coding, &weights))
-            .collect())
+        )
     }
 }
 

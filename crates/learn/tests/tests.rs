@@ -6,5 +6,7 @@ mod place;
 mod real_depth;
 mod real_photos;
 mod sequence;
+mod shape_bias;
 mod speed;
 mod train;
+mod uncertainty;

@@ -34,7 +34,7 @@ use crate::loader;
 use crate::loss::pose_loss;
 use crate::net::{PoseNet, mc};
 use crate::progress::Progress;
-use crate::train::Schedule;
+use crate::train::{Schedule, validation_score};
 use crate::window;
 use crate::{LearnError, Result};
 
@@ -620,7 +620,9 @@ pub fn train_sequence(cfg: &SeqConfig, progress: &mut dyn FnMut(&SeqEvent)) -> R
             val_jitter_m: jitter,
             seconds: t_epoch.elapsed().as_secs_f64(),
         };
-        let improved = med_pos < meta.val_median_pos_m || meta.best_epoch == 0;
+        let improved = meta.best_epoch == 0
+            || validation_score(med_pos, med_rot)
+                < validation_score(meta.val_median_pos_m, meta.val_median_rot_deg);
         stale = if improved { 0 } else { stale + 1 };
         meta.epoch = epoch;
         meta.history.push(metrics.clone());

@@ -180,3 +180,121 @@ pub fn make_flickering_walks(root: &Path, per_seq: usize, flicker: f64, seed: u6
     };
     write_metadata(root, &info, &Trajectory::new(frames), None, None, &splits).unwrap();
 }
+
+/// Writes five recordings along one path into `root` (`s0`-`s3` train, `s4` val, interleaved,
+/// `per_seq` frames each, the colour encoding the pose as [`make_dataset`]'s does) and a test
+/// recording `s5` that walks the same path and then `reach` times as far past its end, where
+/// no training frame was: the network extrapolates there, more wrongly the further it goes.
+pub fn make_walk_past_its_training(root: &Path, per_seq: usize, reach: f64) {
+    let n_train = 5;
+    let mut frames = Vec::new();
+    std::fs::create_dir_all(root.join("frames")).unwrap();
+    let mut number = 0u64;
+    let mut push = |s: usize, i: usize, u: f64, frames: &mut Vec<PoseFrame>| {
+        let (img, pose) = walk_frame(u);
+        img.save(root.join("frames").join(format!("{number:06}.png")))
+            .unwrap();
+        frames.push(PoseFrame {
+            name: format!("{number:06}"),
+            seq: format!("s{s}"),
+            t: Some(i as f64 / 10.0),
+            pose,
+        });
+        number += 1;
+    };
+    for s in 0..n_train {
+        for i in 0..per_seq {
+            push(
+                s,
+                i,
+                (i * n_train + s) as f64 / (n_train * per_seq) as f64,
+                &mut frames,
+            );
+        }
+    }
+    for i in 0..per_seq {
+        push(
+            n_train,
+            i,
+            (1.0 + reach) * i as f64 / per_seq as f64,
+            &mut frames,
+        );
+    }
+    let info = info("a walk past its training".into(), 6, Mount::Forward);
+    let splits = Splits {
+        train: (0..4).map(|s| format!("s{s}")).collect(),
+        val: vec!["s4".into()],
+        test: vec!["s5".into()],
+    };
+    write_metadata(root, &info, &Trajectory::new(frames), None, None, &splits).unwrap();
+}
+
+/// The frame of [`make_walk_past_its_training`]'s path at `u` (0 to 1 where the training frames
+/// are) and its pose.
+fn walk_frame(u: f64) -> (RgbImage, Pose) {
+    let (x, y, h) = (4.0 * u, 0.8 * (3.0 * u).sin(), 1.5 * u - 0.5);
+    let pose = Pose::from_euler_ypr(h, 0.0, 0.0, [x, y, 1.5]).unwrap();
+    // 25 levels of red a metre keep the far end of a test walk below 255
+    let img = textured([30.0 + 25.0 * x, 128.0 + 100.0 * y, 128.0 + 100.0 * h.sin()]);
+    (img, pose)
+}
+
+/// Paint of [`bar_frame`]: the bar's colour, then the wall's.
+pub type Palette = [[f64; 3]; 2];
+
+/// The paint of [`make_bar_walk`]'s frames: a light red bar on a dark blue wall.
+pub const TRAINING_PAINT: Palette = [[200.0, 70.0, 60.0], [50.0, 60.0, 160.0]];
+
+/// A frame of a walk past a bar whose place and height in the image say the pose (x moves it
+/// across, y changes its height), painted in `paint` under the fixed texture: the pose is in
+/// the shape, the paint is only appearance. Edges are drawn with their pixel coverage.
+pub fn bar_frame(u: f64, paint: Palette) -> (RgbImage, Pose) {
+    let (x, y) = (4.0 * u, 0.8 * (3.0 * u).sin());
+    let pose = Pose::from_euler_ypr(0.0, 0.0, 0.0, [x, y, 1.5]).unwrap();
+    let (left, right) = (2.0 + 22.0 * u, 8.0 + 22.0 * u);
+    let top = 2.0 + 7.0 * (y + 0.8) / 1.6;
+    let bottom = f64::from(H) - 2.0;
+    // the share of pixel [p, p + 1) inside [a, b]
+    let cover = |p: f64, a: f64, b: f64| (b.min(p + 1.0) - a.max(p)).clamp(0.0, 1.0);
+    let [bar, wall] = paint;
+    let img = RgbImage::from_fn(W, H, |c, r| {
+        let k = cover(f64::from(c), left, right) * cover(f64::from(r), top, bottom);
+        let tex = (((c * 7 + r * 13) % 11) as f64 - 5.0) * 2.0;
+        Rgb(std::array::from_fn(|i| {
+            (wall[i] + k * (bar[i] - wall[i]) + tex).clamp(0.0, 255.0) as u8
+        }))
+    });
+    (img, pose)
+}
+
+/// Writes five recordings of [`bar_frame`]s in [`TRAINING_PAINT`] into `root` (`s0`-`s3` train,
+/// `s4` val, interleaved along one path, `per_seq` frames each).
+pub fn make_bar_walk(root: &Path, per_seq: usize) {
+    let n_seq = 5;
+    let mut frames = Vec::new();
+    std::fs::create_dir_all(root.join("frames")).unwrap();
+    for s in 0..n_seq {
+        for i in 0..per_seq {
+            let number = frames.len();
+            let (img, pose) = bar_frame(
+                (i * n_seq + s) as f64 / (n_seq * per_seq) as f64,
+                TRAINING_PAINT,
+            );
+            img.save(root.join("frames").join(format!("{number:06}.png")))
+                .unwrap();
+            frames.push(PoseFrame {
+                name: format!("{number:06}"),
+                seq: format!("s{s}"),
+                t: Some(i as f64 / 10.0),
+                pose,
+            });
+        }
+    }
+    let info = info("a walk past a bar".into(), 6, Mount::Forward);
+    let splits = Splits {
+        train: (0..4).map(|s| format!("s{s}")).collect(),
+        val: vec!["s4".into()],
+        test: vec![],
+    };
+    write_metadata(root, &info, &Trajectory::new(frames), None, None, &splits).unwrap();
+}
