@@ -9,21 +9,7 @@ use std::path::Path;
 use data::native::{NativeDataset, SplitName};
 use geom::metrics::{Stats, position_error};
 use learn::seq::{SeqConfig, SeqEvent, SeqFeatures, SeqLocalizer, SeqSummary, train_sequence};
-use learn::{Arch, LearnError, Schedule, TrainConfig, train};
-
-fn base_config(data: &Path, out: &Path, seed: u64) -> TrainConfig {
-    let mut cfg = TrainConfig::new(data, out);
-    cfg.arch = Arch::Small;
-    cfg.view = Some("resize=32x24".into());
-    cfg.epochs = 3;
-    cfg.batch_size = 8;
-    cfg.lr = 3e-3;
-    cfg.schedule = Schedule::Constant;
-    cfg.beta = 1.0;
-    cfg.hidden = 32;
-    cfg.seed = seed;
-    cfg
-}
+use learn::{LearnError, Schedule, train};
 
 fn seq_config(data: &Path, model: &Path, epochs: usize) -> SeqConfig {
     let mut cfg = SeqConfig::new(data, model);
@@ -80,7 +66,7 @@ fn trains_on_windows_and_steps_live_as_it_runs_whole() {
     let tmp = tempfile::tempdir().unwrap();
     let (data, model) = (tmp.path().join("data"), tmp.path().join("model"));
     common::make_dataset(&data, 6, 24);
-    train(&base_config(&data, &model, 7), &mut |_| {}).unwrap();
+    train(&common::tiny_config(&data, &model, 7), &mut |_| {}).unwrap();
     let (summary, events) = run_seq(&seq_config(&data, &model, 4));
     // two training sequences of 24 frames: 21 windows of 4 in each
     assert!(matches!(
@@ -157,7 +143,7 @@ fn resuming_continues_as_an_unbroken_run() {
     common::make_dataset(&data, 3, 16);
     let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
     // one CNN for both (training it twice may differ in the last bits: threads sum in any order)
-    train(&base_config(&data, &a, 5), &mut |_| {}).unwrap();
+    train(&common::tiny_config(&data, &a, 5), &mut |_| {}).unwrap();
     std::fs::create_dir_all(&b).unwrap();
     for file in ["model.toml", "model.bpk"] {
         std::fs::copy(a.join(file), b.join(file)).unwrap();
@@ -196,7 +182,7 @@ fn a_retrained_network_or_short_recordings_are_refused() {
     let tmp = tempfile::tempdir().unwrap();
     let (data, model) = (tmp.path().join("data"), tmp.path().join("model"));
     common::make_dataset(&data, 6, 8);
-    train(&base_config(&data, &model, 1), &mut |_| {}).unwrap();
+    train(&common::tiny_config(&data, &model, 1), &mut |_| {}).unwrap();
     // windows longer than the recordings
     let mut long = seq_config(&data, &model, 1);
     long.window = 9;
@@ -205,7 +191,7 @@ fn a_retrained_network_or_short_recordings_are_refused() {
     run_seq(&seq_config(&data, &model, 1));
     assert!(SeqLocalizer::load(&model).is_ok());
     // the CNN trained again with another seed: its features are not the ones the LSTM knows
-    let mut again = base_config(&data, &model, 2);
+    let mut again = common::tiny_config(&data, &model, 2);
     again.force = true;
     train(&again, &mut |_| {}).unwrap();
     let err = SeqLocalizer::load(&model).unwrap_err();
@@ -236,7 +222,7 @@ fn the_sequence_model_beats_its_own_network_on_a_held_out_walk() {
     // the network's own training frames its outputs are too good to need any history
     common::make_flickering_walks(&data, 60, 40.0, 1);
     common::make_flickering_walks(&seq_data, 60, 40.0, 2);
-    let mut base = base_config(&data, &model, 4);
+    let mut base = common::tiny_config(&data, &model, 4);
     base.epochs = 8;
     train(&base, &mut |_| {}).unwrap();
     let mut cfg = seq_config(&seq_data, &model, 20);

@@ -4,7 +4,7 @@
 use crate::common::{self, Palette, TRAINING_PAINT};
 
 use geom::metrics::{Stats, position_error};
-use learn::{Arch, Localizer, Schedule, TrainConfig, train};
+use learn::{Localizer, train};
 
 /// The held-out paint: a dark green bar on a light yellow wall (the bar's contrast reversed).
 const HELD_OUT_PAINT: Palette = [[40.0, 120.0, 50.0], [220.0, 210.0, 90.0]];
@@ -28,17 +28,9 @@ fn shape_bias_grows_less_than_the_plain_network_under_new_paint() {
     common::make_bar_walk(&data, 60);
     let growth = |shape_bias: bool| {
         let model = tmp.path().join(format!("model-{shape_bias}"));
-        let mut cfg = TrainConfig::new(&data, &model);
-        cfg.arch = Arch::Small;
-        cfg.view = Some("resize=32x24".into());
+        let mut cfg = common::tiny_config(&data, &model, 5);
         cfg.epochs = 8;
-        cfg.batch_size = 8;
-        cfg.lr = 3e-3;
-        cfg.schedule = Schedule::Constant;
-        cfg.beta = 1.0;
-        cfg.hidden = 32;
         cfg.shape_bias = shape_bias;
-        cfg.seed = 5;
         train(&cfg, &mut |_| {}).unwrap();
         let loc = Localizer::load(&model).unwrap();
         let (trained, held_out) = (

@@ -10,7 +10,7 @@ use crate::common;
 
 use data::native::{NativeDataset, SplitName};
 use geom::metrics::{pearson, position_error};
-use learn::{Arch, Localizer, Schedule, TrainConfig, train};
+use learn::{Localizer, train};
 
 #[test]
 fn the_mc_spread_grows_with_the_error_on_a_held_out_walk() {
@@ -18,17 +18,9 @@ fn the_mc_spread_grows_with_the_error_on_a_held_out_walk() {
     let (data, model) = (tmp.path().join("data"), tmp.path().join("model"));
     // the test walk goes as far again past the training frames' end
     common::make_walk_past_its_training(&data, 60, 1.0);
-    let mut cfg = TrainConfig::new(&data, &model);
-    cfg.arch = Arch::Small;
-    cfg.view = Some("resize=32x24".into());
+    let mut cfg = common::tiny_config(&data, &model, 5);
     cfg.epochs = 6;
-    cfg.batch_size = 8;
-    cfg.lr = 3e-3;
-    cfg.schedule = Schedule::Constant;
-    cfg.beta = 1.0;
-    cfg.hidden = 32;
     cfg.dropout = 0.3;
-    cfg.seed = 5;
     train(&cfg, &mut |_| {}).unwrap();
 
     let ds = NativeDataset::open(&data).unwrap();

@@ -38,6 +38,27 @@ fn textured([r, g, b]: [f64; 3]) -> RgbImage {
     })
 }
 
+/// Saves `img` as the next frame of a dataset being written into `root` and adds its record:
+/// frame `i` of sequence `s{seq}`, at 10 Hz.
+fn save_frame(
+    root: &Path,
+    frames: &mut Vec<PoseFrame>,
+    seq: usize,
+    i: usize,
+    img: &RgbImage,
+    pose: Pose,
+) {
+    let name = format!("{:06}", frames.len());
+    img.save(root.join("frames").join(format!("{name}.png")))
+        .unwrap();
+    frames.push(PoseFrame {
+        name,
+        seq: format!("s{seq}"),
+        t: Some(i as f64 / 10.0),
+        pose,
+    });
+}
+
 /// `dataset.toml` of the test datasets: `W`x`H` frames at 10 Hz of a pinhole camera.
 fn info(name: String, dof: u8, mount: Mount) -> DatasetInfo {
     DatasetInfo {
@@ -70,7 +91,6 @@ pub fn make_dataset(root: &Path, dof: u8, per_seq: usize) {
     let mut frames = Vec::new();
     let n_seq = 3;
     std::fs::create_dir_all(root.join("frames")).unwrap();
-    let mut number = 0u64;
     for s in 0..n_seq {
         for i in 0..per_seq {
             let (x, y, h) = pose3(s, i, n_seq);
@@ -79,16 +99,7 @@ pub fn make_dataset(root: &Path, dof: u8, per_seq: usize) {
             } else {
                 Pose::from_euler_ypr(h, 0.1 * y, 0.0, [x, y, 1.5]).unwrap()
             };
-            image(x, y, h)
-                .save(root.join("frames").join(format!("{number:06}.png")))
-                .unwrap();
-            frames.push(PoseFrame {
-                name: format!("{number:06}"),
-                seq: format!("s{s}"),
-                t: Some(i as f64 / 10.0),
-                pose,
-            });
-            number += 1;
+            save_frame(root, &mut frames, s, i, &image(x, y, h), pose);
         }
     }
     let info = info(format!("tiny{dof}"), dof, mount);
@@ -150,26 +161,18 @@ pub fn make_flickering_walks(root: &Path, per_seq: usize, flicker: f64, seed: u6
         let h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
         flicker * (2.0 * (h >> 11) as f64 / (1u64 << 53) as f64 - 1.0)
     };
-    let mut number = 0u64;
     for s in 0..n_seq {
         for i in 0..per_seq {
+            let number = frames.len() as u64;
             let u = (i * n_seq + s) as f64 / (n_seq * per_seq) as f64;
             let (x, y, h) = (4.0 * u, 0.8 * (3.0 * u).sin(), 1.5 * u - 0.5);
             let pose = Pose::from_euler_ypr(h, 0.0, 0.0, [x, y, 1.5]).unwrap();
-            textured([
+            let img = textured([
                 30.0 + 50.0 * x + offset(3 * number),
                 128.0 + 100.0 * y + offset(3 * number + 1),
                 128.0 + 100.0 * h.sin() + offset(3 * number + 2),
-            ])
-            .save(root.join("frames").join(format!("{number:06}.png")))
-            .unwrap();
-            frames.push(PoseFrame {
-                name: format!("{number:06}"),
-                seq: format!("s{s}"),
-                t: Some(i as f64 / 10.0),
-                pose,
-            });
-            number += 1;
+            ]);
+            save_frame(root, &mut frames, s, i, &img, pose);
         }
     }
     let info = info("flickering walks".into(), 6, Mount::Forward);
@@ -189,36 +192,17 @@ pub fn make_walk_past_its_training(root: &Path, per_seq: usize, reach: f64) {
     let n_train = 5;
     let mut frames = Vec::new();
     std::fs::create_dir_all(root.join("frames")).unwrap();
-    let mut number = 0u64;
-    let mut push = |s: usize, i: usize, u: f64, frames: &mut Vec<PoseFrame>| {
+    let mut push = |s: usize, i: usize, u: f64| {
         let (img, pose) = walk_frame(u);
-        img.save(root.join("frames").join(format!("{number:06}.png")))
-            .unwrap();
-        frames.push(PoseFrame {
-            name: format!("{number:06}"),
-            seq: format!("s{s}"),
-            t: Some(i as f64 / 10.0),
-            pose,
-        });
-        number += 1;
+        save_frame(root, &mut frames, s, i, &img, pose);
     };
     for s in 0..n_train {
         for i in 0..per_seq {
-            push(
-                s,
-                i,
-                (i * n_train + s) as f64 / (n_train * per_seq) as f64,
-                &mut frames,
-            );
+            push(s, i, (i * n_train + s) as f64 / (n_train * per_seq) as f64);
         }
     }
     for i in 0..per_seq {
-        push(
-            n_train,
-            i,
-            (1.0 + reach) * i as f64 / per_seq as f64,
-            &mut frames,
-        );
+        push(n_train, i, (1.0 + reach) * i as f64 / per_seq as f64);
     }
     let info = info("a walk past its training".into(), 6, Mount::Forward);
     let splits = Splits {
@@ -275,19 +259,9 @@ pub fn make_bar_walk(root: &Path, per_seq: usize) {
     std::fs::create_dir_all(root.join("frames")).unwrap();
     for s in 0..n_seq {
         for i in 0..per_seq {
-            let number = frames.len();
-            let (img, pose) = bar_frame(
-                (i * n_seq + s) as f64 / (n_seq * per_seq) as f64,
-                TRAINING_PAINT,
-            );
-            img.save(root.join("frames").join(format!("{number:06}.png")))
-                .unwrap();
-            frames.push(PoseFrame {
-                name: format!("{number:06}"),
-                seq: format!("s{s}"),
-                t: Some(i as f64 / 10.0),
-                pose,
-            });
+            let u = (i * n_seq + s) as f64 / (n_seq * per_seq) as f64;
+            let (img, pose) = bar_frame(u, TRAINING_PAINT);
+            save_frame(root, &mut frames, s, i, &img, pose);
         }
     }
     let info = info("a walk past a bar".into(), 6, Mount::Forward);
@@ -297,4 +271,20 @@ pub fn make_bar_walk(root: &Path, per_seq: usize) {
         test: vec![],
     };
     write_metadata(root, &info, &Trajectory::new(frames), None, None, &splits).unwrap();
+}
+
+/// The small network on 32x24 views of these datasets, trained in seconds at a constant rate:
+/// the recipe the toy-scale tests share (each sets what it is about on top).
+pub fn tiny_config(data: &Path, out: &Path, seed: u64) -> learn::TrainConfig {
+    let mut cfg = learn::TrainConfig::new(data, out);
+    cfg.arch = learn::Arch::Small;
+    cfg.view = Some("resize=32x24".into());
+    cfg.epochs = 3;
+    cfg.batch_size = 8;
+    cfg.lr = 3e-3;
+    cfg.schedule = learn::Schedule::Constant;
+    cfg.beta = 1.0;
+    cfg.hidden = 32;
+    cfg.seed = seed;
+    cfg
 }
