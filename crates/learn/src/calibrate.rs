@@ -21,7 +21,7 @@ use imgproc::view::View;
 use crate::Result;
 use crate::checkpoint::SigmaWeights;
 use crate::dataset::Samples;
-use crate::infer::{self, Localizer, Passes, SigmaParts};
+use crate::infer::{Localizer, SigmaParts};
 
 /// MC passes and TTA of the calibration: the defaults of `localize` and `demo`.
 pub const CALIBRATION_MC: usize = 16;
@@ -36,7 +36,7 @@ pub fn calibrate(dir: &Path, val: &Samples) -> Result<Option<SigmaWeights>> {
         return Ok(None);
     }
     let loc = Localizer::load(dir)?;
-    let meta = loc.meta();
+    let dims = loc.meta().coding.task.pos_dims();
     let per = val.view_len();
     let views: Vec<View> = val
         .inputs
@@ -49,23 +49,14 @@ pub fn calibrate(dir: &Path, val: &Samples) -> Result<Option<SigmaWeights>> {
             norm: None,
         })
         .collect();
-    let outputs = infer::predict_outputs(
-        loc.net(),
-        &views,
-        meta.input,
-        &meta.view,
-        Passes::new(true, CALIBRATION_MC, meta.dropout, loc.seed()),
-        loc.device(),
-    )?;
-    let (parts, errors): (Vec<SigmaParts>, Vec<f64>) = outputs
-        .iter()
+    let (parts, errors): (Vec<SigmaParts>, Vec<f64>) = loc
+        .with_tta(true)
+        .sigma_parts(&views, CALIBRATION_MC)?
+        .into_iter()
         .zip(&val.poses)
-        .map(|(o, truth)| {
-            let (pose, parts, _) = o.parts(&meta.coding);
-            (parts, geom::metrics::position_error(truth, &pose))
-        })
+        .map(|((pose, parts), truth)| (parts, geom::metrics::position_error(truth, &pose)))
         .unzip();
-    Ok(Some(fit(&parts, &errors, meta.coding.task.pos_dims())))
+    Ok(Some(fit(&parts, &errors, dims)))
 }
 
 /// The grid's weights: 0, then 10^(k/4) for k = −16..=8.
