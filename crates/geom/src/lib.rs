@@ -8,6 +8,8 @@
 //! - [`Camera`]: pinhole intrinsics with radial/tangential distortion; project, unproject, undistort.
 //! - [`metrics`]: position/rotation/heading errors, statistics, accuracy at thresholds,
 //!   smoothness, Pearson correlation.
+//! - [`uncertainty`]: coverage of covariance regions, NLL, calibration error, and the
+//!   calibration that makes a covariance mean what it claims.
 //!
 //! # Conventions
 //! - Metres; radians inside the code, degrees only in reports.
@@ -30,6 +32,7 @@ mod error;
 pub mod metrics;
 mod pose;
 pub mod rotation;
+pub mod uncertainty;
 
 pub use camera::{Camera, Distortion};
 pub use error::{GeomError, Result};

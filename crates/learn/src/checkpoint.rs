@@ -20,6 +20,8 @@ use burn::module::Module;
 use burn::optim::ModuleOptimizer;
 use burn::store::ModuleRecord;
 use burn::tensor::Bytes;
+use geom::uncertainty::Calibration;
+use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
 use crate::hash::Fnv64;
@@ -138,7 +140,27 @@ pub struct ModelMeta {
     /// ([`crate::calibrate`]); `None` until then, and for models from before (all 1 then).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sigma_weights: Option<SigmaWeights>,
+    /// What the weighed covariance means as a probability, fitted on the validation frames
+    /// with the weights ([`crate::calibrate`]); `None` until then, and for models from before.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<UncertaintyCalibration>,
 }
+
+/// The calibration of a model's covariances ([`geom::uncertainty::Calibration`]): its scale
+/// multiplies the covariance that leaves the model, its radii give the regions.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UncertaintyCalibration {
+    /// Of the position covariance (dims 3, or 2 for a floor position).
+    pub position: Calibration,
+    /// Of the rotation variance (dims 3, or 1 for a heading); `None` without MC passes, which
+    /// give the only rotation spread.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<Calibration>,
+}
+
+/// Least variance of a position axis, m² (a millimetre): the parts can all be zero (one
+/// deterministic pass, no TTA, no scale output), and a covariance must stay invertible.
+pub const COVARIANCE_FLOOR_M2: f64 = 1e-6;
 
 /// Weights of the three variances `sigma_pos_m` adds up ([`crate::infer::SigmaParts`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -159,9 +181,14 @@ impl SigmaWeights {
         scale: 1.0,
     };
 
-    /// The weighed sum of `parts`, m².
-    pub fn variance(&self, parts: &SigmaParts) -> f64 {
-        self.mc * parts.mc + self.tta * parts.tta + self.scale * parts.scale
+    /// The weighed sum of `parts`' covariances, m², plus [`COVARIANCE_FLOOR_M2`] on the
+    /// position's `dims` axes so that it is positive definite there.
+    pub fn covariance(&self, parts: &SigmaParts, dims: usize) -> Matrix3<f64> {
+        let mut cov = parts.mc * self.mc + parts.tta * self.tta + parts.scale * self.scale;
+        for k in 0..dims.min(3) {
+            cov[(k, k)] += COVARIANCE_FLOOR_M2;
+        }
+        cov
     }
 
     fn check(&self) -> std::result::Result<(), String> {
@@ -240,7 +267,12 @@ impl ModelMeta {
         }
         self.sigma_weights
             .as_ref()
-            .map_or(Ok(()), SigmaWeights::check)
+            .map_or(Ok(()), SigmaWeights::check)?;
+        if let Some(u) = &self.uncertainty {
+            u.position.check()?;
+            u.rotation.as_ref().map_or(Ok(()), Calibration::check)?;
+        }
+        Ok(())
     }
 
     /// Writes `dir/model.toml` atomically.

@@ -14,13 +14,16 @@
 //! and `sigma_rot_deg` is the RMS angle between the samples and their mean rotation. Masks come
 //! from a generator seeded per call, so the same image gives the same estimate every time.
 //!
-//! `sigma_pos_m` adds three variances, each weighed by the checkpoint's
-//! [`SigmaWeights`] (fitted on the validation frames by [`crate::calibrate`]; 1 for models from
-//! before): the MC spread², the TTA views' spread² about their mean, and for a model with a
-//! per-image scale output ([`crate::net::HeadConfig::aleatoric`]) that error's own covariance:
-//! under the density `∝ exp(−‖e‖ / b)` in `d` dimensions, `E‖e‖² = d(d + 1)·b²`, averaged over
-//! the views. So it holds what the model is unsure of (the MC spread), how much the answer
-//! hangs on details of the image (the TTA spread) and what the image leaves open (the scale).
+//! The position covariance `cov_pos_m2` adds three covariances, each weighed by the
+//! checkpoint's [`SigmaWeights`] (fitted on the validation frames by [`crate::calibrate`]; 1
+//! for models from before): the MC samples' covariance, the TTA views' covariance about their
+//! mean, and for a model with a per-image scale output ([`crate::net::HeadConfig::aleatoric`])
+//! that error's own, isotropic covariance: under the density `∝ exp(−‖e‖ / b)` in `d`
+//! dimensions, `E‖e‖² = d(d + 1)·b²`, averaged over the views. So it holds what the model is
+//! unsure of (the MC spread), how much the answer hangs on details of the image (the TTA
+//! spread) and what the image leaves open (the scale). The sum is then multiplied by the
+//! model's calibration scale ([`UncertaintyCalibration`]), so that it means what a Gaussian
+//! covariance claims; `sigma_pos_m` is the square root of its trace.
 
 use std::path::Path;
 
@@ -29,9 +32,9 @@ use burn::tensor::{Device, Tensor, TensorData};
 use geom::{Pose, Pose3};
 use image::DynamicImage;
 use imgproc::view::{View, ViewSpec};
-use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
-use crate::checkpoint::{self, MODEL_BPK, ModelMeta, SigmaWeights};
+use crate::checkpoint::{self, MODEL_BPK, ModelMeta, SigmaWeights, UncertaintyCalibration};
 use crate::head::{PoseCoding, Task};
 use crate::net::{PoseNet, mc};
 use crate::tta;
@@ -51,10 +54,13 @@ pub struct Estimate {
     pub pose: Pose,
     /// The 3-DoF pose, for 3-DoF models.
     pub pose3: Option<Pose3>,
-    /// `sqrt(trace Σ_pos)`, metres: the spread of the MC samples plus, for models with a scale
-    /// output, the predicted error covariance; 0 for neither.
+    /// `sqrt(trace cov_pos_m2)`, metres.
     pub sigma_pos_m: f64,
-    /// RMS angle of the MC samples to the mean rotation, degrees; 0 without MC passes.
+    /// Position covariance, m², world axes (see the module docs): calibrated when the model
+    /// is; for a 3-DoF model the z row and column are 0.
+    pub cov_pos_m2: Matrix3<f64>,
+    /// RMS angle of the MC samples to the mean rotation, degrees, times the square root of the
+    /// model's rotation scale when it is calibrated; 0 without MC passes.
     pub sigma_rot_deg: f64,
     /// Stochastic passes used (0 = one deterministic pass).
     pub passes: usize,
@@ -187,24 +193,27 @@ impl Localizer {
     /// Poses of many views, run in batches of [`CHUNK`] images.
     pub fn predict_batch(&self, views: &[View], mc_passes: usize) -> Result<Vec<Estimate>> {
         let weights = self.meta.sigma_weights();
+        let calibration = self.meta.uncertainty.as_ref();
         Ok(self
             .outputs(views, mc_passes)?
             .iter()
-            .map(|o| o.estimate(&self.meta.coding, &weights))
+            .map(|o| o.estimate(&self.meta.coding, &weights, calibration))
             .collect())
     }
 
-    /// Each view's pose and the variances its sigma is made of, before the calibrated weights
-    /// ([`SigmaParts`]: what each source of uncertainty says on its own), with this localizer's
-    /// TTA setting and `mc_passes` MC passes.
-    pub fn sigma_parts(&self, views: &[View], mc_passes: usize) -> Result<Vec<(Pose, SigmaParts)>> {
+    /// Each view's pose, the covariances its `cov_pos_m2` is made of before the calibrated
+    /// weights ([`SigmaParts`]: what each source of uncertainty says on its own) and the MC
+    /// rotation spread (degrees, uncalibrated), with this localizer's TTA setting and
+    /// `mc_passes` MC passes.
+    pub fn sigma_parts(
+        &self,
+        views: &[View],
+        mc_passes: usize,
+    ) -> Result<Vec<(Pose, SigmaParts, f64)>> {
         Ok(self
             .outputs(views, mc_passes)?
             .iter()
-            .map(|o| {
-                let (pose, parts, _) = o.parts(&self.meta.coding);
-                (pose, parts)
-            })
+            .map(|o| o.parts(&self.meta.coding))
             .collect())
     }
 
@@ -283,51 +292,93 @@ pub struct ImageOutputs {
     pub mc: Vec<Vec<f32>>,
 }
 
-/// The three variances (m²) `sigma_pos_m` is made of, before weighing.
+/// The three covariances (m², world axes) `cov_pos_m2` is made of, before weighing.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SigmaParts {
-    /// MC spread².
-    pub mc: f64,
-    /// Spread² of the TTA views' positions about their mean.
-    pub tta: f64,
-    /// Covariance trace of the predicted per-image error scale.
-    pub scale: f64,
+    /// Covariance of the MC samples' positions.
+    pub mc: Matrix3<f64>,
+    /// Covariance of the TTA views' positions about their mean.
+    pub tta: Matrix3<f64>,
+    /// The predicted per-image error scale's covariance (isotropic on the position's axes).
+    pub scale: Matrix3<f64>,
+}
+
+impl SigmaParts {
+    /// The traces of the MC, TTA and scale parts, m².
+    pub fn traces(&self) -> [f64; 3] {
+        [self.mc.trace(), self.tta.trace(), self.scale.trace()]
+    }
 }
 
 impl ImageOutputs {
-    /// The pose (see the module docs), its variance parts and the MC rotation spread (degrees).
+    /// The pose (see the module docs), its covariance parts and the MC rotation spread
+    /// (degrees).
     pub fn parts(&self, coding: &PoseCoding) -> (Pose, SigmaParts, f64) {
         let poses: Vec<Pose> = self.views.iter().map(|r| coding.decode(r)).collect();
         let rotation = poses
             .first()
             .map_or(Pose::identity().rotation, |p| p.rotation);
-        let (mean, view_spread, _) = mean_pose(&poses);
-        let (mc_spread, sigma_rot_deg) = if self.mc.len() > 1 {
+        let (mean, _, _) = mean_pose(&poses);
+        let (mc, sigma_rot_deg) = if self.mc.len() > 1 {
             let samples: Vec<Pose> = self.mc.iter().map(|r| coding.decode(r)).collect();
-            let (_, spread, rot) = mean_pose(&samples);
-            (spread, rot)
+            let (_, _, rot) = mean_pose(&samples);
+            (position_covariance(&samples), rot)
         } else {
-            (0.0, 0.0)
+            (Matrix3::zeros(), 0.0)
         };
+        let dims = coding.task.pos_dims();
+        let per_axis = aleatoric_variance(coding, &self.views) / dims as f64;
+        let mut scale = Matrix3::zeros();
+        for k in 0..dims {
+            scale[(k, k)] = per_axis;
+        }
         let parts = SigmaParts {
-            mc: mc_spread.powi(2),
-            tta: view_spread.powi(2),
-            scale: aleatoric_variance(coding, &self.views),
+            mc,
+            tta: position_covariance(&poses),
+            scale,
         };
         (Pose::new(rotation, mean.translation), parts, sigma_rot_deg)
     }
 
-    /// The estimate these outputs give, its variance parts weighed by `weights`.
-    pub fn estimate(&self, coding: &PoseCoding, weights: &SigmaWeights) -> Estimate {
+    /// The estimate these outputs give: its covariance parts weighed by `weights`, then
+    /// scaled by `calibration` when there is one.
+    pub fn estimate(
+        &self,
+        coding: &PoseCoding,
+        weights: &SigmaWeights,
+        calibration: Option<&UncertaintyCalibration>,
+    ) -> Estimate {
         let (pose, parts, sigma_rot_deg) = self.parts(coding);
+        let cov = weights.covariance(&parts, coding.task.pos_dims())
+            * calibration.map_or(1.0, |c| c.position.scale);
+        let rot_scale = calibration
+            .and_then(|c| c.rotation.as_ref())
+            .map_or(1.0, |c| c.scale);
         Estimate {
             pose,
             pose3: (coding.task == Task::Pose3).then(|| pose.to_pose3(coding.mount)),
-            sigma_pos_m: weights.variance(&parts).sqrt(),
-            sigma_rot_deg,
+            sigma_pos_m: cov.trace().max(0.0).sqrt(),
+            cov_pos_m2: cov,
+            sigma_rot_deg: sigma_rot_deg * rot_scale.sqrt(),
             passes: if self.mc.len() > 1 { self.mc.len() } else { 0 },
         }
     }
+}
+
+/// Population covariance of the poses' positions, m².
+pub fn position_covariance(poses: &[Pose]) -> Matrix3<f64> {
+    if poses.len() < 2 {
+        return Matrix3::zeros();
+    }
+    let n = poses.len() as f64;
+    let mean = poses
+        .iter()
+        .fold(Vector3::zeros(), |acc, p| acc + p.translation)
+        / n;
+    poses.iter().fold(Matrix3::zeros(), |acc, p| {
+        let d = p.translation - mean;
+        acc + d * d.transpose()
+    }) / n
 }
 
 /// [`image_outputs`] of views (each image's own; with TTA in `passes` its copies are made
@@ -458,7 +509,7 @@ pub fn estimates(coding: &PoseCoding, rows: &[Vec<f32>], mc: usize) -> Vec<Estim
                 views: group[..1].to_vec(),
                 mc: group[1..].to_vec(),
             }
-            .estimate(coding, &SigmaWeights::UNIT)
+            .estimate(coding, &SigmaWeights::UNIT, None)
         })
         .collect()
 }
@@ -523,9 +574,10 @@ mod tests {
         let est = &estimates(&coding, &[row.clone(), row.clone(), moved], 2)[0];
         assert!((est.sigma_pos_m - 2.5f64.sqrt()).abs() < 1e-6, "{est:?}");
         assert_eq!(est.passes, 2);
-        // Without the column, nothing is added.
+        // Without the column, nothing is added but the millimetre floor on x and y.
         let est = &estimates(&coding, &[row[..4].to_vec()], 0)[0];
-        assert_eq!(est.sigma_pos_m, 0.0);
+        assert!((est.sigma_pos_m - 2e-6f64.sqrt()).abs() < 1e-12, "{est:?}");
+        assert_eq!(est.cov_pos_m2[(2, 2)], 0.0);
     }
 
     #[test]

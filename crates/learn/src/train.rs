@@ -483,6 +483,7 @@ fn fresh(cfg: &TrainConfig, data: &TrainData, spec: &ViewSpec, device: &Device) 
         state: StateFiles::default(),
         history: Vec::new(),
         sigma_weights: None,
+        uncertainty: None,
     };
     Ok(Start {
         meta,
@@ -741,8 +742,10 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
             break;
         }
     }
-    if meta.sigma_weights.is_none() && meta.best_epoch > 0 {
-        meta.sigma_weights = crate::calibrate::calibrate(&cfg.out, &data.val)?;
+    if meta.uncertainty.is_none() && meta.best_epoch > 0 {
+        let fitted = crate::calibrate::calibrate(&cfg.out, &data.val)?;
+        (meta.sigma_weights, meta.uncertainty) =
+            fitted.map_or((None, None), |(w, c)| (Some(w), Some(c)));
         meta.write(&cfg.out)?;
     }
     Ok(TrainSummary::of(&meta, &cfg.out))
@@ -852,6 +855,7 @@ fn save_epoch(
         meta.weights_hash = checkpoint::write_file(dir, MODEL_BPK, &bytes)?;
         // New weights: the uncertainty is calibrated again once training ends.
         meta.sigma_weights = None;
+        meta.uncertainty = None;
     }
     meta.write(dir)?;
     checkpoint::prune_state(dir, &meta.state);

@@ -39,7 +39,7 @@ fn the_mc_spread_grows_with_the_error_on_a_held_out_walk() {
         .unwrap()
         .iter()
         .zip(&poses)
-        .map(|((pose, parts), truth)| (parts.mc.sqrt(), position_error(truth, pose)))
+        .map(|((pose, parts, _), truth)| (parts.mc.trace().sqrt(), position_error(truth, pose)))
         .unzip();
     let r = pearson(&spreads, &errors).unwrap();
     eprintln!("R between the MC spread and the error: {r:.2}");

@@ -17,6 +17,7 @@ use geom::{Camera, Pose};
 use image::{DynamicImage, GrayImage, RgbImage};
 use learn::Localizer;
 use markers::{DetectParams, Dictionary, MarkerMap};
+use nalgebra::Matrix3;
 use std::path::Path;
 
 /// One estimator's output for a frame (time is the pipeline's to fill in).
@@ -24,22 +25,42 @@ use std::path::Path;
 pub struct Estimation {
     /// The estimated camera-to-world pose.
     pub pose: Pose,
-    /// `sqrt(trace Σ_pos)`, metres.
-    pub sigma_pos_m: f64,
+    /// Position covariance, m², world axes.
+    pub cov_pos_m2: Matrix3<f64>,
     /// Rotation standard deviation, radians.
     pub sigma_rot_rad: f64,
 }
 
 impl Estimation {
+    /// An estimate whose position uncertainty is known only as `sigma_pos_m`
+    /// (`sqrt(trace Σ_pos)`, metres): spread evenly over the three axes.
+    pub fn isotropic(pose: Pose, sigma_pos_m: f64, sigma_rot_rad: f64) -> Estimation {
+        Estimation {
+            pose,
+            cov_pos_m2: isotropic_cov(sigma_pos_m),
+            sigma_rot_rad,
+        }
+    }
+
+    /// `sqrt(trace Σ_pos)`, metres.
+    pub fn sigma_pos_m(&self) -> f64 {
+        self.cov_pos_m2.trace().max(0.0).sqrt()
+    }
+
     /// The filter's measurement at time `t`.
     pub fn at(&self, t: f64) -> Measurement {
         Measurement {
             t,
             pose: self.pose,
-            sigma_pos_m: self.sigma_pos_m,
+            cov_pos_m2: self.cov_pos_m2,
             sigma_rot_rad: self.sigma_rot_rad,
         }
     }
+}
+
+/// The covariance `sigma_pos_m² / 3 · I` (m²).
+pub fn isotropic_cov(sigma_pos_m: f64) -> Matrix3<f64> {
+    Matrix3::identity() * (sigma_pos_m * sigma_pos_m / 3.0)
 }
 
 /// Something that estimates the camera pose from one frame.
@@ -94,7 +115,7 @@ impl Estimator for NetworkEstimator {
             .predict(&DynamicImage::ImageRgb8(image.clone()), self.mc_passes)?;
         Ok(Some(Estimation {
             pose: e.pose,
-            sigma_pos_m: e.sigma_pos_m,
+            cov_pos_m2: e.cov_pos_m2,
             sigma_rot_rad: e.sigma_rot_deg.to_radians(),
         }))
     }
@@ -147,13 +168,8 @@ impl Estimator for MarkerEstimator {
         imgproc::view::rgb_to_gray(image, &mut self.gray)
             .map_err(|e| crate::TrackError::Config(format!("marker view: {e}")))?;
         let found = markers::detect(&self.gray, &self.dict, &self.params);
-        Ok(
-            markers::locate(&found, &self.map, &self.camera).map(|l| Estimation {
-                pose: l.pose,
-                sigma_pos_m: l.sigma_pos_m,
-                sigma_rot_rad: l.sigma_rot_deg.to_radians(),
-            }),
-        )
+        Ok(markers::locate(&found, &self.map, &self.camera)
+            .map(|l| Estimation::isotropic(l.pose, l.sigma_pos_m, l.sigma_rot_deg.to_radians())))
     }
 }
 
@@ -190,17 +206,16 @@ impl Estimator for MapEstimator {
     ) -> Result<Option<Estimation>> {
         let coarse = prior.map(|p| map::Coarse {
             pose: p.pose,
-            sigma_pos_m: p.sigma_pos_m,
+            sigma_pos_m: p.sigma_pos_m(),
         });
         // The refinement reads a DynamicImage; the copy costs well under a millisecond.
         let img = DynamicImage::ImageRgb8(image.clone());
         let r = self.map.refine(&img, coarse.as_ref(), &self.cfg)?;
         Ok(r.refined.then(|| {
-            let pos = r.cov_pos_m2.map_or(0.0, |c| c.trace());
             let rot = r.cov_rot_rad2.map_or(0.0, |c| c.trace());
             Estimation {
                 pose: r.pose,
-                sigma_pos_m: pos.max(0.0).sqrt(),
+                cov_pos_m2: r.cov_pos_m2.unwrap_or_else(Matrix3::zeros),
                 sigma_rot_rad: rot.max(0.0).sqrt(),
             }
         }))

@@ -13,7 +13,7 @@
 //! the cut starts over at once.
 
 use geom::Pose;
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// Settings of the filter.
@@ -58,8 +58,9 @@ pub struct Measurement {
     pub t: f64,
     /// The estimated camera-to-world pose.
     pub pose: Pose,
-    /// `sqrt(trace Σ_pos)` of the estimate, metres (0 if unknown).
-    pub sigma_pos_m: f64,
+    /// Position covariance of the estimate, m², world axes (0 if unknown); the filter reads
+    /// its diagonal.
+    pub cov_pos_m2: Matrix3<f64>,
     /// Rotation standard deviation, radians (0 if unknown).
     pub sigma_rot_rad: f64,
 }
@@ -170,11 +171,14 @@ impl PoseFilter {
         self.state.is_some()
     }
 
-    /// Per-axis measurement variance of `m`.
-    fn pos_var(&self, m: &Measurement) -> f64 {
-        let per_axis = m.sigma_pos_m / 3f64.sqrt();
-        let s = if per_axis.is_finite() { per_axis } else { 0.0 };
-        s.max(self.cfg.min_pos_sigma).powi(2)
+    /// Measurement variance of `m` per world axis: its covariance's diagonal, at least
+    /// `min_pos_sigma²`.
+    fn pos_var(&self, m: &Measurement) -> [f64; 3] {
+        std::array::from_fn(|k| {
+            let v = m.cov_pos_m2[(k, k)];
+            let v = if v.is_finite() { v.max(0.0) } else { 0.0 };
+            v.max(self.cfg.min_pos_sigma.powi(2))
+        })
     }
 
     fn rot_var(&self, m: &Measurement) -> f64 {
@@ -192,9 +196,9 @@ impl PoseFilter {
         self.state = Some(State {
             t: m.t,
             axes: [
-                Axis::start(t.x, r),
-                Axis::start(t.y, r),
-                Axis::start(t.z, r),
+                Axis::start(t.x, r[0]),
+                Axis::start(t.y, r[1]),
+                Axis::start(t.z, r[2]),
             ],
             rotation: m.pose.rotation,
             rot_var: rr,
@@ -202,8 +206,8 @@ impl PoseFilter {
         });
         Fused {
             pose: m.pose,
-            sigma_pos_m: (3.0 * r).sqrt(),
-            pos_var: [r; 3],
+            sigma_pos_m: r.iter().sum::<f64>().sqrt(),
+            pos_var: r,
             sigma_rot_rad: rr.sqrt(),
             update: Update::Started,
         }
@@ -228,13 +232,14 @@ impl PoseFilter {
             .axes
             .iter()
             .zip([z.x, z.y, z.z])
-            .map(|(a, z)| {
+            .zip(r)
+            .map(|((a, z), r)| {
                 let (y, s) = a.innovation(z, r);
                 y * y / s
             })
             .sum();
         let update = if d2.is_finite() && d2 <= cfg.gate {
-            for (a, z) in state.axes.iter_mut().zip([z.x, z.y, z.z]) {
+            for ((a, z), r) in state.axes.iter_mut().zip([z.x, z.y, z.z]).zip(r) {
                 a.update(z, r);
             }
             let k = state.rot_var / (state.rot_var + rr);
@@ -300,7 +305,7 @@ mod tests {
         Measurement {
             t,
             pose: p,
-            sigma_pos_m: sigma,
+            cov_pos_m2: crate::estimator::isotropic_cov(sigma),
             sigma_rot_rad: 0.05,
         }
     }

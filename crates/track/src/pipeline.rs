@@ -14,6 +14,7 @@ use crate::source::{Source, SourceFrame};
 use crate::stats::{Metrics, Stage};
 use geom::Pose;
 use image::RgbImage;
+use nalgebra::Matrix3;
 use serde::Serialize;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -63,6 +64,8 @@ pub struct RawEstimate {
     pub sigma_pos_m: f64,
     /// Rotation standard deviation, degrees.
     pub sigma_rot_deg: f64,
+    /// Position covariance, m², row-major 3x3.
+    pub cov_pos_m2: [f64; 9],
 }
 
 /// Milliseconds each stage took for one frame.
@@ -406,7 +409,7 @@ impl<'a> Worker<'a> {
             .flatten()
             .map(|f| Estimation {
                 pose: f.pose,
-                sigma_pos_m: f.sigma_pos_m,
+                cov_pos_m2: Matrix3::from_diagonal(&f.pos_var.into()),
                 sigma_rot_rad: f.sigma_rot_rad,
             });
         for e in estimators.iter_mut() {
@@ -472,8 +475,9 @@ impl<'a> Worker<'a> {
                     estimator: name,
                     position: e.pose.position(),
                     quaternion: e.pose.quat_wxyz(),
-                    sigma_pos_m: e.sigma_pos_m,
+                    sigma_pos_m: e.sigma_pos_m(),
                     sigma_rot_deg: e.sigma_rot_rad.to_degrees(),
+                    cov_pos_m2: std::array::from_fn(|k| e.cov_pos_m2[(k / 3, k % 3)]),
                 })
                 .collect(),
             truth: sf.truth.map(|p| Truth {

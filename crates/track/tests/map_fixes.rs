@@ -31,11 +31,7 @@ impl Estimator for Biased {
         let p = self.poses[self.next.min(self.poses.len() - 1)];
         self.next += 1;
         let shifted = Pose::new(p.rotation, Vector3::from(p.position()) + Vector3::x() * 0.3);
-        Ok(Some(Estimation {
-            pose: shifted,
-            sigma_pos_m: 0.2,
-            sigma_rot_rad: 0.05,
-        }))
+        Ok(Some(Estimation::isotropic(shifted, 0.2, 0.05)))
     }
 }
 

@@ -201,7 +201,8 @@ pub struct PoseFields {
     /// RMS rotation of the MC passes about their mean, degrees.
     pub sigma_rot_deg: f64,
     /// 3x3 position covariance, m², row-major: the refinement's (from its Jacobian) when
-    /// refined, else `sigma_pos_m² / 3` on the diagonal.
+    /// refined, else the model's calibrated one (the retrieval's: `sigma_pos_m² / 3` on the
+    /// diagonal).
     pub cov_pos_m2: [f64; 9],
     /// With a map: whether the pose comes from it.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -217,14 +218,13 @@ pub struct PoseFields {
 impl PoseFields {
     /// The fields of `est`.
     pub fn of(est: &Estimate) -> Self {
-        let v = est.sigma_pos_m * est.sigma_pos_m / 3.0;
         PoseFields {
             position: est.pose.position(),
             quaternion: est.pose.quat_wxyz(),
             pose3: est.pose3.map(|p| [p.x, p.y, p.heading]),
             sigma_pos_m: est.sigma_pos_m,
             sigma_rot_deg: est.sigma_rot_deg,
-            cov_pos_m2: [v, 0.0, 0.0, 0.0, v, 0.0, 0.0, 0.0, v],
+            cov_pos_m2: std::array::from_fn(|k| est.cov_pos_m2[(k / 3, k % 3)]),
             refined: None,
             inliers: None,
             fallback: None,
@@ -420,6 +420,7 @@ pub fn run(args: &LocalizeArgs) -> Result<()> {
                         pose: r.pose,
                         pose3: None,
                         sigma_pos_m: r.sigma_pos_m,
+                        cov_pos_m2: nalgebra::Matrix3::identity() * (r.sigma_pos_m.powi(2) / 3.0),
                         sigma_rot_deg: r.sigma_rot_deg,
                         passes: 0,
                     })

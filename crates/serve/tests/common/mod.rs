@@ -40,14 +40,14 @@ impl Estimator for PaintedPose {
         _prior: Option<&Estimation>,
     ) -> track::Result<Option<Estimation>> {
         let x = f64::from(image.get_pixel(0, 0)[0]) / 10.0;
-        Ok(Some(Estimation {
-            pose: geom::Pose::new(
+        Ok(Some(Estimation::isotropic(
+            geom::Pose::new(
                 nalgebra::UnitQuaternion::identity(),
                 nalgebra::Vector3::new(x, 1.0, 1.5),
             ),
-            sigma_pos_m: 0.2,
-            sigma_rot_rad: 0.05,
-        }))
+            0.2,
+            0.05,
+        )))
     }
 }
 

@@ -291,7 +291,7 @@ fn filtered(
         let fused = filter.push(&Measurement {
             t,
             pose: r.estimate.pose,
-            sigma_pos_m: r.estimate.sigma_pos_m,
+            cov_pos_m2: r.estimate.cov_pos_m2,
             sigma_rot_rad: r.estimate.sigma_rot_deg.to_radians(),
         });
         if fused.update == track::Update::Started {
