@@ -1,7 +1,8 @@
 //! JSON lines of poses, as `indoorloc localize` prints them: one object per line with
 //! `frame` (image file stem or frame index), `position` `[x, y, z]` (metres, camera centre),
 //! `quaternion` `[w, x, y, z]` (camera-to-world, DESIGN.md's conventions, so no conversion), and
-//! optionally `t` (seconds), `seq`, `sigma_pos_m`, `latency_ms` and more, which this reader
+//! optionally `t` (seconds), `seq`, `cov_pos_m2` (3x3 position covariance, m², row-major; read
+//! by [`read_with_covariance`]), `sigma_pos_m`, `latency_ms` and more, which this reader
 //! ignores.
 
 use crate::error::{DataError, Result};
@@ -22,12 +23,22 @@ struct PoseLine {
     t: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     seq: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    cov_pos_m2: Option<[f64; 9]>,
 }
 
 /// Reads pose JSON lines; blank lines are skipped, any other line must be a pose object.
 pub fn read(path: &Path) -> Result<Trajectory> {
+    read_with_covariance(path).map(|(t, _)| t)
+}
+
+/// [`read`], with each frame's `cov_pos_m2` where its line has one (row-major, m²). A
+/// covariance that is not symmetric with a non-negative, finite diagonal is an error naming
+/// the line.
+pub fn read_with_covariance(path: &Path) -> Result<(Trajectory, Vec<Option<[f64; 9]>>)> {
     let text = read_text(path)?;
     let mut frames = Vec::new();
+    let mut covariances = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let line_no = i + 1;
         if line.trim().is_empty() {
@@ -48,6 +59,21 @@ pub fn read(path: &Path) -> Result<Trajectory> {
         };
         let pose = Pose::from_t_wxyz(p.position, p.quaternion)
             .map_err(|e| DataError::parse(path, line_no, e.to_string()))?;
+        if let Some(c) = &p.cov_pos_m2 {
+            let symmetric = (0..3).all(|i| (0..3).all(|j| c[3 * i + j] == c[3 * j + i]));
+            let diagonal = (0..3).all(|i| c[4 * i].is_finite() && c[4 * i] >= 0.0);
+            if !(symmetric && diagonal && c.iter().all(|v| v.is_finite())) {
+                return Err(DataError::parse(
+                    path,
+                    line_no,
+                    format!(
+                        "'cov_pos_m2' must be a symmetric 3x3 matrix with a finite, \
+                         non-negative diagonal: {c:?}"
+                    ),
+                ));
+            }
+        }
+        covariances.push(p.cov_pos_m2);
         frames.push(PoseFrame {
             name,
             seq: p.seq.unwrap_or_default(),
@@ -58,7 +84,7 @@ pub fn read(path: &Path) -> Result<Trajectory> {
     if frames.is_empty() {
         return Err(DataError::invalid(path, "no poses"));
     }
-    Ok(Trajectory::new(frames))
+    Ok((Trajectory::new(frames), covariances))
 }
 
 /// Writes one pose object per line (`frame`, `position`, `quaternion`, `t` and `seq` where known).
@@ -71,6 +97,7 @@ pub fn write(traj: &Trajectory, path: &Path) -> Result<()> {
                 quaternion: f.pose.quat_wxyz(),
                 t: f.t,
                 seq: (!f.seq.is_empty()).then(|| f.seq.clone()),
+                cov_pos_m2: None,
             };
             serde_json::to_writer(&mut *w, &line)?;
             w.write_all(b"\n")?;
@@ -100,6 +127,18 @@ mod tests {
         let r = t.frames[0].pose.rotation_matrix();
         assert!((r[(0, 0)] + 1.0).abs() < 1e-12 && (r[(1, 1)] + 1.0).abs() < 1e-12);
         assert_eq!(t.frames[1].t, Some(0.5));
+        let (_, cov) = read_with_covariance(&p)?;
+        assert_eq!(cov, vec![None, None]);
+        std::fs::write(
+            &p,
+            "{\"frame\":1,\"position\":[1,2,3],\"quaternion\":[1,0,0,0],\"cov_pos_m2\":[1,0.5,0,0.5,2,0,0,0,3]}\n",
+        )
+        .map_err(|e| DataError::io(&p, e))?;
+        let (_, cov) = read_with_covariance(&p)?;
+        assert_eq!(
+            cov,
+            vec![Some([1.0, 0.5, 0.0, 0.5, 2.0, 0.0, 0.0, 0.0, 3.0])]
+        );
         let out = dir.path().join("out.jsonl");
         write(&t, &out)?;
         let back = read(&out)?;
@@ -126,6 +165,10 @@ mod tests {
                 "'frame'",
             ),
             ("", "no poses"),
+            (
+                "{\"frame\":1,\"position\":[1,2,3],\"quaternion\":[1,0,0,0],\"cov_pos_m2\":[1,2,0,0,1,0,0,0,1]}\n",
+                ":1: 'cov_pos_m2' must be a symmetric",
+            ),
         ] {
             std::fs::write(&p, content).map_err(|e| DataError::io(&p, e))?;
             let msg = read(&p).unwrap_err().to_string();

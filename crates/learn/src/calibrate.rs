@@ -134,7 +134,14 @@ pub fn fit_all(
             .filter_map(|f| Standardised::isotropic(f.rot_error.powi(2), f.rot_spread.powi(2), rd))
             .collect::<Vec<_>>(),
     );
-    Some((weights, UncertaintyCalibration { position, rotation }))
+    Some((
+        weights,
+        UncertaintyCalibration {
+            position,
+            rotation,
+            fused: None,
+        },
+    ))
 }
 
 /// The grid's weights: 0, then 10^(k/4) for k = −16..=8.
@@ -227,6 +234,46 @@ mod tests {
             fit(&[part(0.0, 0.0, 0.0)], &[Vector3::new(0.3, 0.0, 0.0)], 3),
             SigmaWeights::UNIT
         );
+    }
+
+    /// Errors drawn from Gaussians whose spread the MC part knows up to a factor of 3 and the
+    /// TTA part not at all: the fit leans on the MC part and the calibrated regions of fresh
+    /// frames hold what they claim.
+    #[test]
+    fn fitted_regions_cover_fresh_gaussian_errors() {
+        use geom::uncertainty::UncertaintyFigures;
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let mut gaussian = move || {
+            let (u, v): (f64, f64) = (rng.random::<f64>().max(1e-300), rng.random());
+            (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+        };
+        let mut frames = |n: usize| -> Vec<ValidationFrame> {
+            (0..n)
+                .map(|i| {
+                    let s = 0.05 + 0.05 * (i % 10) as f64;
+                    let e = Vector3::new(s * gaussian(), s * gaussian(), s * gaussian());
+                    ValidationFrame {
+                        error: e,
+                        rot_error: 0.01,
+                        // The MC part's trace s² is a third of the truth's 3 s².
+                        parts: part(s * s, 0.04, 0.0),
+                        rot_spread: 0.01,
+                    }
+                })
+                .collect()
+        };
+        let (val, test) = (frames(600), frames(3000));
+        let (w, cal) = fit_all(&val, Task::Pose6).unwrap();
+        assert!(w.mc > 1.5 && w.mc < 6.0 && w.tta < 0.1, "{w:?}");
+        let scored: Vec<Standardised> = test
+            .iter()
+            .filter_map(|f| Standardised::of(&f.error, &w.covariance(&f.parts, 3), 3))
+            .collect();
+        let fig =
+            UncertaintyFigures::of(&scored, &vec![1.0; scored.len()], Some(&cal.position)).unwrap();
+        assert!((fig.coverage[0] - 0.5).abs() < 0.05, "{fig:?}");
+        assert!((fig.coverage[2] - 0.95).abs() < 0.025, "{fig:?}");
     }
 
     #[test]

@@ -156,6 +156,10 @@ pub struct UncertaintyCalibration {
     /// give the only rotation spread.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rotation: Option<Calibration>,
+    /// Of the temporal filter's fused covariance when this model feeds it, fitted by `track`
+    /// on the validation walk run through the filter; `None` until then.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fused: Option<Calibration>,
 }
 
 /// Least variance of a position axis, m² (a millimetre): the parts can all be zero (one
@@ -271,6 +275,7 @@ impl ModelMeta {
         if let Some(u) = &self.uncertainty {
             u.position.check()?;
             u.rotation.as_ref().map_or(Ok(()), Calibration::check)?;
+            u.fused.as_ref().map_or(Ok(()), Calibration::check)?;
         }
         Ok(())
     }

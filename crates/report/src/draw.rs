@@ -5,6 +5,7 @@ use crate::figure::{
     CdfPlot, Curve, Ends, Panel, Plot, TimePlot, TopDown, TopDownPlot, padded, top_down_view,
 };
 use crate::font::FONT;
+use crate::reliability::ReliabilityPlot;
 use crate::scatter::ScatterPlot;
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
@@ -103,6 +104,7 @@ where
         Plot::TopDown(p) => draw_top_down(root, p, bitmap),
         Plot::ErrorMap(p) => draw_error_map(root, p),
         Plot::Scatter(p) => draw_scatter(root, p),
+        Plot::Reliability(p) => draw_reliability(root, p),
     }
 }
 
@@ -701,6 +703,46 @@ where
             line.to_vec(),
             fit.stroke_width(2),
         )))?;
+    }
+    Ok(())
+}
+
+fn draw_reliability<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    p: &ReliabilityPlot,
+) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    let area = titled(root, &p.title)?;
+    let mut entries = vec![("ideal".to_string(), Glyph::Line(AXIS.to_rgba(), 1))];
+    for (k, (name, _)) in p.curves.iter().enumerate() {
+        let color = PALETTE[k % PALETTE.len()];
+        entries.push((name.clone(), Glyph::Line(color.to_rgba(), 3)));
+    }
+    let area = legend_strip(&area, &entries)?;
+    let mut chart = ChartBuilder::on(&area)
+        .margin(8)
+        .margin_right(24)
+        .x_label_area_size(48)
+        .y_label_area_size(68)
+        .build_cartesian_2d(0.0..1.0, 0.0..1.0)?;
+    let descs = (
+        "nominal probability of the region",
+        "share of errors inside",
+    );
+    draw_mesh(&mut chart, descs, (11, 11), (1.0, 1.0))?;
+    chart.draw_series(std::iter::once(PathElement::new(
+        vec![(0.0, 0.0), (1.0, 1.0)],
+        AXIS.stroke_width(1),
+    )))?;
+    for (k, (_, points)) in p.curves.iter().enumerate() {
+        let color = PALETTE[k % PALETTE.len()];
+        chart.draw_series(std::iter::once(PathElement::new(
+            points.clone(),
+            color.stroke_width(3),
+        )))?;
+        chart.draw_series(points.iter().map(|&at| Circle::new(at, 3, color.filled())))?;
     }
     Ok(())
 }

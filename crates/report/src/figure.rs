@@ -9,6 +9,7 @@ use crate::errmap::{ErrorMap, ErrorMapPlot, prepare_error_map};
 use crate::error::{ReportError, Result};
 use crate::font::{FONT, SVG_FONT_STACK, ensure_font};
 use crate::io::write_atomic;
+use crate::reliability::{Reliability, ReliabilityPlot, prepare_reliability};
 use crate::scatter::{Scatter, ScatterPlot, prepare_scatter};
 use geom::metrics::percentile_sorted;
 use plotters::prelude::*;
@@ -125,6 +126,8 @@ pub enum Figure {
     ErrorMap(ErrorMap),
     /// See [`Scatter`].
     Scatter(Scatter),
+    /// See [`Reliability`].
+    Reliability(Reliability),
 }
 
 impl From<ErrorCdf> for Figure {
@@ -225,6 +228,7 @@ impl Figure {
             Figure::TopDown(f) => (draw::TOP_DOWN_WIDTH, draw::top_down_height(f)),
             Figure::ErrorMap(f) => (draw::TOP_DOWN_WIDTH, draw::error_map_height(f)),
             Figure::Scatter(_) => (760, 580),
+            Figure::Reliability(_) => (760, 620),
         }
     }
 
@@ -274,6 +278,7 @@ impl Figure {
             Figure::TopDown(f) => Plot::TopDown(prepare_top_down(f)?),
             Figure::ErrorMap(f) => Plot::ErrorMap(prepare_error_map(f)?),
             Figure::Scatter(f) => Plot::Scatter(prepare_scatter(f)?),
+            Figure::Reliability(f) => Plot::Reliability(prepare_reliability(f)?),
         };
         // values near f64::MAX overflow the padded axes; plotters cannot lay out such an axis
         let axes: Vec<(f64, f64)> = match &plot {
@@ -294,6 +299,7 @@ impl Figure {
                 (0.0, p.color_max),
             ],
             Plot::Scatter(p) => vec![p.x_range, p.y_range],
+            Plot::Reliability(_) => vec![(0.0, 1.0), (0.0, 1.0)],
         };
         if !axes
             .iter()
@@ -324,6 +330,7 @@ pub(crate) enum Plot {
     TopDown(TopDownPlot),
     ErrorMap(ErrorMapPlot),
     Scatter(ScatterPlot),
+    Reliability(ReliabilityPlot),
 }
 
 /// First and last finite point of a track.

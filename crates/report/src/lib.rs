@@ -10,7 +10,8 @@
 //!   [`pose_summary_table`]: its summary table, also for the terminal.
 //! - [`Figure`]: [`error_cdf`], [`error_over_time`], [`trajectory_top_down`], [`error_map`]
 //!   (position errors coloured along a walk), [`scatter`] (e.g. predicted uncertainty against
-//!   error, with Pearson r) or the structs [`ErrorCdf`], [`ErrorOverTime`], [`TopDown`],
+//!   error, with Pearson r), [`reliability`] (coverage of uncertainty regions against their
+//!   nominal probability) or the structs [`ErrorCdf`], [`ErrorOverTime`], [`TopDown`],
 //!   [`ErrorMap`], [`Scatter`], rendered with [`Figure::to_png`],
 //!   [`Figure::to_svg`], [`Figure::save_png`], [`Figure::save_svg`], [`Figure::save_both`].
 //! - [`Table`]: aligned text for terminals, HTML, JSON rows.
@@ -57,6 +58,7 @@ mod figure;
 mod font;
 mod html;
 mod io;
+mod reliability;
 mod rhythm;
 mod saliency;
 mod scatter;
@@ -73,6 +75,7 @@ pub use figure::{
 };
 pub use html::HtmlReport;
 pub use io::write_atomic;
+pub use reliability::{Reliability, ReliabilityCurve, reliability};
 pub use rhythm::{RhythmPlot, rhythm_png};
 pub use saliency::saliency_overlay;
 pub use scatter::{Scatter, scatter};

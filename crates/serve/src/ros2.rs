@@ -121,7 +121,8 @@ impl PoseWithCovarianceStamped {
                 covariance[r * 6 + c] = p.covariance_pos[r * 3 + c];
             }
         }
-        let rot_var = p.sigma_rot_deg.to_radians().powi(2);
+        // sigma_rot_deg is the RMS angle, the root of the three axes' variances together.
+        let rot_var = p.sigma_rot_deg.to_radians().powi(2) / 3.0;
         for k in 3..6 {
             covariance[k * 6 + k] = rot_var;
         }

@@ -93,6 +93,22 @@ impl NetworkEstimator {
         })
     }
 
+    /// The same estimator with test-time augmentation on or off (off by default; see
+    /// [`Localizer::with_tta`]).
+    pub fn with_tta(mut self, tta: bool) -> NetworkEstimator {
+        self.loc = self.loc.with_tta(tta);
+        self
+    }
+
+    /// The factor of the filter's covariance that the model's fused calibration gives for
+    /// this estimator's settings ([`crate::calibrate`]): `None` when the model has none, or
+    /// when it was fitted with other MC passes or TTA than this estimator runs.
+    pub fn fused_cov_scale(&self) -> Option<f64> {
+        let calibrated = self.mc_passes == learn::calibrate::CALIBRATION_MC && self.loc.tta();
+        let fused = self.loc.meta().uncertainty.as_ref()?.fused.as_ref()?;
+        calibrated.then_some(fused.scale)
+    }
+
     /// The loaded model.
     pub fn localizer(&self) -> &Localizer {
         &self.loc

@@ -36,6 +36,14 @@ pub struct FilterConfig {
     pub gate: f64,
     /// After this many refused measurements in a row the filter starts over from the next one.
     pub max_rejections: u32,
+    /// Factor of the position covariance the filter reports (not of its state): the fused
+    /// calibration's scale ([`crate::calibrate`]), 1 when there is none.
+    #[serde(default = "unit")]
+    pub cov_scale: f64,
+}
+
+fn unit() -> f64 {
+    1.0
 }
 
 impl Default for FilterConfig {
@@ -47,6 +55,7 @@ impl Default for FilterConfig {
             min_rot_sigma: 0.01,
             gate: 14.16,
             max_rejections: 10,
+            cov_scale: 1.0,
         }
     }
 }
@@ -204,10 +213,11 @@ impl PoseFilter {
             rot_var: rr,
             rejections: 0,
         });
+        let pos_var = r.map(|v| v * self.cfg.cov_scale);
         Fused {
             pose: m.pose,
-            sigma_pos_m: r.iter().sum::<f64>().sqrt(),
-            pos_var: r,
+            sigma_pos_m: pos_var.iter().sum::<f64>().sqrt(),
+            pos_var,
             sigma_rot_rad: rr.sqrt(),
             update: Update::Started,
         }
@@ -257,7 +267,7 @@ impl PoseFilter {
             }
             Update::Rejected
         };
-        state.output(update)
+        state.output(update, cfg.cov_scale)
     }
 
     /// The state predicted to time `t` without a measurement (a frame no estimator could
@@ -271,13 +281,15 @@ impl PoseFilter {
             a.predict(dt, q);
         }
         state.rot_var += self.cfg.rot_noise * self.cfg.rot_noise * dt;
-        Some(state.output(Update::Rejected))
+        Some(state.output(Update::Rejected, self.cfg.cov_scale))
     }
 }
 
 impl State {
-    fn output(&self, update: Update) -> Fused {
-        let pos_var = [self.axes[0].p[0], self.axes[1].p[0], self.axes[2].p[0]];
+    /// The state as reported, its position covariance times `cov_scale`.
+    fn output(&self, update: Update, cov_scale: f64) -> Fused {
+        let pos_var =
+            [self.axes[0].p[0], self.axes[1].p[0], self.axes[2].p[0]].map(|v| v * cov_scale);
         Fused {
             pose: Pose::new(
                 self.rotation,

@@ -5,8 +5,10 @@
 //! [`estimator`] turns a frame into a pose measurement (the pose network, ArUco markers),
 //! [`PoseFilter`] fuses measurements over time, and [`Pipeline`] runs them on two threads
 //! joined by a bounded queue that drops stale frames of live sources, measuring every stage
-//! ([`Metrics`]).
+//! ([`Metrics`]). [`calibrate`] fits what the fused covariance means on a model's validation
+//! walk.
 
+pub mod calibrate;
 mod error;
 pub mod estimator;
 mod filter;

@@ -6,6 +6,7 @@ use clap::Args;
 use data::formats::{self, Format};
 use data::matching::{MatchedBy, match_frames};
 use geom::metrics::{ACCURACY_THRESHOLDS, PoseEvaluation, Smoothness};
+use geom::uncertainty::{Standardised, UncertaintyFigures};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -83,6 +84,10 @@ pub struct EvalOutput {
     near_cuts: Option<Subset>,
     #[serde(skip_serializing_if = "Option::is_none")]
     away_from_cuts: Option<Subset>,
+    /// How the estimates' `cov_pos_m2` (localize JSON lines) reads their errors, when they
+    /// carry one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    coverage: Option<UncertaintyFigures>,
     #[serde(skip_serializing_if = "Option::is_none")]
     report: Option<PathBuf>,
     seconds: f64,
@@ -160,6 +165,13 @@ pub fn evaluate(args: &EvalArgs) -> Result<(EvalOutput, PoseEvaluation)> {
         .map(|&(_, e)| est.frames[e].pose)
         .collect();
     let ev = PoseEvaluation::of(&gt_poses, &est_poses)?;
+    let coverage = if est_format == Format::Jsonl {
+        let (_, cov) = data::jsonl::read_with_covariance(&args.est)?;
+        let cov: Vec<_> = matching.pairs.iter().map(|&(_, e)| cov[e]).collect();
+        coverage_of(&gt_poses, &est_poses, &cov)
+    } else {
+        None
+    };
 
     if let Some(path) = &args.per_frame {
         write_per_frame(path, &matching.pairs, &est, &ev)?;
@@ -200,6 +212,7 @@ pub fn evaluate(args: &EvalArgs) -> Result<(EvalOutput, PoseEvaluation)> {
         unmatched_est: matching.unmatched_est,
         near_cuts: None,
         away_from_cuts: None,
+        coverage,
         report: None,
         seconds: 0.0,
     };
@@ -239,6 +252,28 @@ pub fn evaluate(args: &EvalArgs) -> Result<(EvalOutput, PoseEvaluation)> {
     }
     out.seconds = start.elapsed().as_secs_f64();
     Ok((out, ev))
+}
+
+/// Coverage of the estimates' covariance regions, read as Gaussian, over the frames that carry
+/// a covariance (`None` when none does). A covariance with no z variance is a floor position's
+/// (a 3-DoF model's): its x, y block is read.
+fn coverage_of(
+    gt: &[geom::Pose],
+    est: &[geom::Pose],
+    cov: &[Option<[f64; 9]>],
+) -> Option<UncertaintyFigures> {
+    let (frames, sigma): (Vec<Standardised>, Vec<f64>) = gt
+        .iter()
+        .zip(est)
+        .zip(cov)
+        .filter_map(|((g, e), c)| {
+            let c = nalgebra::Matrix3::from_row_slice(c.as_ref()?);
+            let dims = if c[(2, 2)] > 0.0 { 3 } else { 2 };
+            let s = Standardised::of(&(e.translation - g.translation), &c, dims)?;
+            Some((s, c.trace().sqrt()))
+        })
+        .unzip();
+    UncertaintyFigures::of(&frames, &sigma, None)
 }
 
 fn cut_table(near: &Subset, away: &Subset, window: u64) -> report::Table {
@@ -358,6 +393,20 @@ fn human_text(o: &EvalOutput, ev: &PoseEvaluation, cut_window: u64) -> String {
     if let (Some(near), Some(away)) = (&o.near_cuts, &o.away_from_cuts) {
         text.push('\n');
         text.push_str(&cut_table(near, away, cut_window).to_text());
+    }
+    if let Some(c) = &o.coverage {
+        text.push_str(&format!(
+            "\ncovariance of {} frames: coverage of the 50 / 90 / 95 / 99 % regions {:.1} / \
+             {:.1} / {:.1} / {:.1} %, NLL {:.2}, calibration error {:.3}, median sigma {:.3} m\n",
+            c.frames,
+            100.0 * c.coverage[0],
+            100.0 * c.coverage[1],
+            100.0 * c.coverage[2],
+            100.0 * c.coverage[3],
+            c.nll,
+            c.ece,
+            c.median_sigma_m
+        ));
     }
     if let Some(path) = &o.report {
         text.push_str(&format!("\nreport: {}\n", path.display()));

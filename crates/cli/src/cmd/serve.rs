@@ -43,9 +43,14 @@ pub struct ServeArgs {
     #[arg(long, value_name = "ORIGIN")]
     allow_origin: Vec<String>,
     /// Monte-Carlo-dropout passes per frame (0: one deterministic pass; the network's own
-    /// error scale still gives the uncertainty).
-    #[arg(long, default_value_t = 0)]
+    /// error scale still gives the uncertainty). The covariance is calibrated for 16 passes
+    /// with --tta, `localize`'s defaults; other settings publish it uncalibrated.
+    #[arg(long, default_value_t = learn::calibrate::CALIBRATION_MC)]
     mc: usize,
+    /// Test-time augmentation: each frame is also seen as four slightly shifted copies (five
+    /// times the backbone's cost); their spread joins the covariance.
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set, value_name = "BOOL")]
+    tta: bool,
     /// Marker map (TOML, `indoorloc markers locate`'s): metric fixes from mapped ArUco
     /// markers in view, fused with the network's poses. Needs `--camera`.
     #[arg(long, value_name = "FILE")]
@@ -252,8 +257,20 @@ fn plan(args: &ServeArgs) -> Result<Plan> {
 fn build_pipeline(args: &ServeArgs, plan: &Plan) -> Result<Pipeline> {
     let source = track::source::open(&plan.source, plan.split, args.fps)?;
     let mut estimators: Vec<Box<dyn Estimator>> = Vec::new();
+    let mut filter = track::FilterConfig::default();
     if let Some(dir) = &plan.model {
-        estimators.push(Box::new(NetworkEstimator::load(dir, args.mc)?));
+        let net = NetworkEstimator::load(dir, args.mc)?.with_tta(args.tta);
+        match net.fused_cov_scale() {
+            Some(scale) => filter.cov_scale = scale,
+            None => eprintln!(
+                "indoorloc: note: the fused covariance is not calibrated for this model at \
+                 --mc {} --tta {} (it is for --mc {} --tta true once trained by this version)",
+                args.mc,
+                args.tta,
+                learn::calibrate::CALIBRATION_MC
+            ),
+        }
+        estimators.push(Box::new(net));
     }
     match (&args.markers, &args.camera) {
         (Some(map), Some(cam)) => {
@@ -273,6 +290,7 @@ fn build_pipeline(args: &ServeArgs, plan: &Plan) -> Result<Pipeline> {
         estimators.push(Box::new(MapEstimator::load(path)?));
     }
     let cfg = PipelineConfig {
+        filter,
         realtime: plan.realtime,
         detect_cuts: !args.no_cuts,
         max_frames: args.max_frames,

@@ -3,7 +3,7 @@
 
 use crate::output::{print_json, print_text};
 use crate::progress::TrainingDisplay;
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use learn::place::{PlaceConfig, PlaceEpoch, PlaceLoaded};
 use learn::seq::{SeqConfig, SeqEpoch, SeqFeatures, SeqSummary};
@@ -497,7 +497,23 @@ pub fn train_with_progress(cfg: &TrainConfig, lines: bool) -> Result<TrainSummar
             )
         },
     };
-    Ok(display.run(|progress| learn::train(cfg, progress))?)
+    let summary = display.run(|progress| learn::train(cfg, progress))?;
+    calibrate_fused(cfg)?;
+    Ok(summary)
+}
+
+/// Fits the fused track's calibration for the model `cfg` trained ([`track::calibrate`]) unless
+/// it has one: the validation walk through the temporal filter (a few seconds).
+fn calibrate_fused(cfg: &TrainConfig) -> Result<()> {
+    let meta = learn::checkpoint::ModelMeta::read(&cfg.out)?;
+    if meta.uncertainty.is_none_or(|u| u.fused.is_none()) {
+        let plan = cfg
+            .blocks
+            .map_or(data::posed::SplitPlan::Auto, data::posed::SplitPlan::Blocks);
+        track::calibrate::calibrate_model(&cfg.out, &cfg.data, plan)
+            .with_context(|| format!("calibrating the fused track of {}", cfg.out.display()))?;
+    }
+    Ok(())
 }
 
 /// Trains the sequence part with a progress bar per epoch and one line per finished epoch on

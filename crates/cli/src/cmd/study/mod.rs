@@ -10,6 +10,7 @@ mod render_types;
 mod robustness;
 mod sequence;
 mod track;
+mod uncertainty;
 
 use crate::cmd::demo::{DemoArgs, Evaluation};
 use anyhow::Result;
@@ -52,6 +53,11 @@ enum Study {
     /// Marker pose error against distance and viewing angle, for two camera resolutions, on
     /// a marker rendered on a wall.
     MarkersDistance(markers_distance::MarkersDistanceArgs),
+    /// Coverage of the position covariance (50 / 90 / 95 / 99 % regions), NLL, calibration
+    /// error and sharpness on held-out walks (forward, an unseen appearance, ceiling) and a
+    /// real dataset (`--data`), for the network and the fused track, before and after
+    /// calibration, with reliability diagrams.
+    Uncertainty(uncertainty::UncertaintyArgs),
     /// Every study in turn (each in its own process), headline figures beside those the docs
     /// record; exits 2 when a study fails or a figure drifted past its tolerance.
     All(all::AllArgs),
@@ -68,6 +74,7 @@ pub fn run(args: &StudyArgs) -> Result<()> {
         Study::PlaceSplit(a) => place_split::run(a),
         Study::MarkersDistance(a) => markers_distance::run(a),
         Study::Real(a) => real::run(a),
+        Study::Uncertainty(a) => uncertainty::run(a),
         Study::All(a) => all::run(a),
     }
 }
