@@ -180,12 +180,13 @@ impl Calibration {
     /// Checks a calibration read from a file.
     pub fn check(&self) -> Result<(), String> {
         let ordered = self.radii.windows(2).all(|w| w[0] <= w[1]);
-        if !(1..=3).contains(&self.dims)
-            || !(self.scale.is_finite() && self.scale > 0.0)
-            || self.radii.len() != KNOT_LEVELS.len()
-            || !ordered
-            || self.radii.iter().any(|r| !r.is_finite() || *r < 0.0)
-        {
+        let valid = (1..=3).contains(&self.dims)
+            && self.scale.is_finite()
+            && self.scale > 0.0
+            && self.radii.len() == KNOT_LEVELS.len()
+            && ordered
+            && self.radii.iter().all(|r| r.is_finite() && *r >= 0.0);
+        if !valid {
             return Err(format!(
                 "uncertainty calibration must have dims 1 to 3, a positive scale and {} \
                  ascending radii: {self:?}",
