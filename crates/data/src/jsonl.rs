@@ -60,7 +60,12 @@ pub fn read_with_covariance(path: &Path) -> Result<(Trajectory, Vec<Option<[f64;
         let pose = Pose::from_t_wxyz(p.position, p.quaternion)
             .map_err(|e| DataError::parse(path, line_no, e.to_string()))?;
         if let Some(c) = &p.cov_pos_m2 {
-            let symmetric = (0..3).all(|i| (0..3).all(|j| c[3 * i + j] == c[3 * j + i]));
+            // Symmetric up to rounding: a covariance from a Jacobian differs by 1e-24 m².
+            let scale = (0..3)
+                .map(|i| c[4 * i].abs())
+                .fold(f64::MIN_POSITIVE, f64::max);
+            let symmetric =
+                (0..3).all(|i| (0..3).all(|j| (c[3 * i + j] - c[3 * j + i]).abs() <= 1e-9 * scale));
             let diagonal = (0..3).all(|i| c[4 * i].is_finite() && c[4 * i] >= 0.0);
             if !(symmetric && diagonal && c.iter().all(|v| v.is_finite())) {
                 return Err(DataError::parse(
@@ -131,13 +136,23 @@ mod tests {
         assert_eq!(cov, vec![None, None]);
         std::fs::write(
             &p,
-            "{\"frame\":1,\"position\":[1,2,3],\"quaternion\":[1,0,0,0],\"cov_pos_m2\":[1,0.5,0,0.5,2,0,0,0,3]}\n",
+            "{\"frame\":1,\"position\":[1,2,3],\"quaternion\":[1,0,0,0],\"cov_pos_m2\":[1,0.5,0,0.5000000000000001,2,0,0,0,3]}\n",
         )
         .map_err(|e| DataError::io(&p, e))?;
         let (_, cov) = read_with_covariance(&p)?;
         assert_eq!(
             cov,
-            vec![Some([1.0, 0.5, 0.0, 0.5, 2.0, 0.0, 0.0, 0.0, 3.0])]
+            vec![Some([
+                1.0,
+                0.5,
+                0.0,
+                0.5000000000000001,
+                2.0,
+                0.0,
+                0.0,
+                0.0,
+                3.0
+            ])]
         );
         let out = dir.path().join("out.jsonl");
         write(&t, &out)?;
