@@ -17,9 +17,10 @@
 //! The position covariance `cov_pos_m2` adds three covariances, each weighed by the
 //! checkpoint's [`SigmaWeights`] (fitted on the validation frames by [`crate::calibrate`]; 1
 //! for models from before): the MC samples' covariance, the TTA views' covariance about their
-//! mean (each shrunk to isotropic, [`SHRINKAGE`]), and for a model with a per-image scale output ([`crate::net::HeadConfig::aleatoric`])
-//! that error's own, isotropic covariance: under the density `∝ exp(−‖e‖ / b)` in `d`
-//! dimensions, `E‖e‖² = d(d + 1)·b²`, averaged over the views. So it holds what the model is
+//! mean (each shrunk to isotropic, [`SHRINKAGE`]), and for a model with a per-image scale
+//! output ([`crate::net::HeadConfig::aleatoric`]) that error's own, isotropic covariance:
+//! under the density `∝ exp(−‖e‖ / b)` in `d` dimensions, `E‖e‖² = d(d + 1)·b²`, averaged
+//! over the views. So it holds what the model is
 //! unsure of (the MC spread), how much the answer hangs on details of the image (the TTA
 //! spread) and what the image leaves open (the scale). The sum is then multiplied by the
 //! model's calibration scale ([`UncertaintyCalibration`]), so that it means what a Gaussian
