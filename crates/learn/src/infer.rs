@@ -223,6 +223,25 @@ impl Localizer {
             .collect())
     }
 
+    /// The estimate this model gives a pose with its covariance parts and MC rotation spread
+    /// (degrees, as [`Localizer::sigma_parts`] returns them) from `passes` MC passes: what
+    /// [`Localizer::predict_batch`] would give, without running the network again.
+    pub fn estimate_from_parts(
+        &self,
+        pose: Pose,
+        parts: &SigmaParts,
+        sigma_rot_deg: f64,
+        passes: usize,
+    ) -> Estimate {
+        weighed(
+            &self.meta.coding,
+            &self.meta.sigma_weights(),
+            self.meta.uncertainty.as_ref(),
+            (pose, parts, sigma_rot_deg),
+            passes,
+        )
+    }
+
     /// The network's outputs for `views`, [`CHUNK`] images at a time.
     fn outputs(&self, views: &[View], mc_passes: usize) -> Result<Vec<ImageOutputs>> {
         predict_outputs(
@@ -355,19 +374,38 @@ impl ImageOutputs {
         calibration: Option<&UncertaintyCalibration>,
     ) -> Estimate {
         let (pose, parts, sigma_rot_deg) = self.parts(coding);
-        let cov = weights.covariance(&parts, coding.task.pos_dims())
-            * calibration.map_or(1.0, |c| c.position.scale);
-        let rot_scale = calibration
-            .and_then(|c| c.rotation.as_ref())
-            .map_or(1.0, |c| c.scale);
-        Estimate {
-            pose,
-            pose3: (coding.task == Task::Pose3).then(|| pose.to_pose3(coding.mount)),
-            sigma_pos_m: cov.trace().max(0.0).sqrt(),
-            cov_pos_m2: cov,
-            sigma_rot_deg: sigma_rot_deg * rot_scale.sqrt(),
-            passes: if self.mc.len() > 1 { self.mc.len() } else { 0 },
-        }
+        let passes = if self.mc.len() > 1 { self.mc.len() } else { 0 };
+        weighed(
+            coding,
+            weights,
+            calibration,
+            (pose, &parts, sigma_rot_deg),
+            passes,
+        )
+    }
+}
+
+/// The estimate of a pose with its covariance parts and MC rotation spread (degrees): the
+/// parts weighed by `weights`, then scaled by `calibration` when there is one.
+fn weighed(
+    coding: &PoseCoding,
+    weights: &SigmaWeights,
+    calibration: Option<&UncertaintyCalibration>,
+    (pose, parts, sigma_rot_deg): (Pose, &SigmaParts, f64),
+    passes: usize,
+) -> Estimate {
+    let cov = weights.covariance(parts, coding.task.pos_dims())
+        * calibration.map_or(1.0, |c| c.position.scale);
+    let rot_scale = calibration
+        .and_then(|c| c.rotation.as_ref())
+        .map_or(1.0, |c| c.scale);
+    Estimate {
+        pose,
+        pose3: (coding.task == Task::Pose3).then(|| pose.to_pose3(coding.mount)),
+        sigma_pos_m: cov.trace().max(0.0).sqrt(),
+        cov_pos_m2: cov,
+        sigma_rot_deg: sigma_rot_deg * rot_scale.sqrt(),
+        passes,
     }
 }
 

@@ -502,11 +502,12 @@ pub fn train_with_progress(cfg: &TrainConfig, lines: bool) -> Result<TrainSummar
     Ok(summary)
 }
 
-/// Fits the fused track's calibration for the model `cfg` trained ([`track::calibrate`]) unless
-/// it has one: the validation walk through the temporal filter (a few seconds).
+/// Fits the fused track's calibration for the model `cfg` trained ([`track::calibrate`]) when it
+/// has a network calibration and no fused one: the validation walk through the temporal filter
+/// (a few seconds).
 fn calibrate_fused(cfg: &TrainConfig) -> Result<()> {
     let meta = learn::checkpoint::ModelMeta::read(&cfg.out)?;
-    if meta.uncertainty.is_none_or(|u| u.fused.is_none()) {
+    if meta.uncertainty.is_some_and(|u| u.fused.is_none()) {
         let plan = cfg
             .blocks
             .map_or(data::posed::SplitPlan::Auto, data::posed::SplitPlan::Blocks);

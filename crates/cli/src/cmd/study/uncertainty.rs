@@ -29,7 +29,6 @@ use learn::calibrate::{CALIBRATION_MC, rot_dims, rotation_error};
 use learn::checkpoint::{SigmaWeights, UncertaintyCalibration};
 use learn::infer::SigmaParts;
 use learn::{Estimate, Localizer, TrainConfig};
-use nalgebra::Matrix3;
 use rayon::prelude::*;
 use report::{HtmlReport, ReliabilityCurve, Table};
 use serde::Serialize;
@@ -166,16 +165,6 @@ impl Model {
             rot_spread: out.iter().map(|o| o.2.to_radians()).collect(),
         })
     }
-
-    /// The covariance that leaves the model (weighed and scaled), as
-    /// [`learn::infer::ImageOutputs::estimate`] makes it.
-    fn calibrated_cov(&self, parts: &SigmaParts) -> Matrix3<f64> {
-        self.weights.covariance(parts, self.dims()) * self.calibration.position.scale
-    }
-
-    fn rot_scale(&self) -> f64 {
-        self.calibration.rotation.as_ref().map_or(1.0, |c| c.scale)
-    }
 }
 
 /// Runs `indoorloc study uncertainty`.
@@ -191,11 +180,7 @@ pub fn run(args: &UncertaintyArgs) -> Result<()> {
     say("forward camera: the demo's network (rendered and trained as `demo` does)");
     let demo_args = super::demo_args(&args.out.join("forward"), &args.scale, &[])?;
     let forward = demo::render_and_train(&demo_args, &say)?;
-    let model = Model::load(&forward.model_dir)?;
-    let ds = NativeDataset::open(&forward.data_dir)?;
-    let photo_as = forward.scene().train_mode()?;
-    let fused_cal = fused_calibration(&model, &forward.data_dir, SplitPlan::Auto)?;
-    let test = native_set(&ds, SplitName::Test, &model.loc, photo_as)?;
+    let (model, fused_cal, test) = demo_test_walk(&forward)?;
     score_set(&model, &test, "forward", fused_cal.as_ref(), &mut rows)?;
     diagrams.push("forward".to_string());
 
@@ -206,6 +191,7 @@ pub fn run(args: &UncertaintyArgs) -> Result<()> {
     ));
     demo::scene::render_variant_walks(forward.scene(), &walks, &[args.variant], &|_| {})?;
     let vds = NativeDataset::open(&walks)?;
+    let photo_as = forward.scene().train_mode()?;
     let variant = native_set(&vds, SplitName::Test, &model.loc, photo_as)?;
     let name = format!("forward-{}", args.variant.name());
     score_set(&model, &variant, &name, fused_cal.as_ref(), &mut rows)?;
@@ -218,12 +204,8 @@ pub fn run(args: &UncertaintyArgs) -> Result<()> {
             &args.scale,
             &["--camera", "ceiling"],
         )?;
-        let ceiling: Prepared = demo::render_and_train(&demo_args, &say)?;
-        let model = Model::load(&ceiling.model_dir)?;
-        let ds = NativeDataset::open(&ceiling.data_dir)?;
-        let photo_as = ceiling.scene().train_mode()?;
-        let fused_cal = fused_calibration(&model, &ceiling.data_dir, SplitPlan::Auto)?;
-        let test = native_set(&ds, SplitName::Test, &model.loc, photo_as)?;
+        let ceiling = demo::render_and_train(&demo_args, &say)?;
+        let (model, fused_cal, test) = demo_test_walk(&ceiling)?;
         score_set(&model, &test, "ceiling", fused_cal.as_ref(), &mut rows)?;
         diagrams.push("ceiling".to_string());
     }
@@ -278,6 +260,16 @@ pub fn run(args: &UncertaintyArgs) -> Result<()> {
             out.report.display()
         ))
     }
+}
+
+/// A demo folder's model, its fused calibration and its held-out test walk.
+fn demo_test_walk(prepared: &Prepared) -> Result<(Model, Option<Calibration>, FrameSet)> {
+    let model = Model::load(&prepared.model_dir)?;
+    let ds = NativeDataset::open(&prepared.data_dir)?;
+    let photo_as = prepared.scene().train_mode()?;
+    let fused_cal = fused_calibration(&model, &prepared.data_dir, SplitPlan::Auto)?;
+    let test = native_set(&ds, SplitName::Test, &model.loc, photo_as)?;
+    Ok((model, fused_cal, test))
 }
 
 /// Whether a row's coverage is in the acceptance band.
@@ -424,22 +416,15 @@ fn score_set(
         rot_cov(model.calibration.rotation.as_ref()),
     )?);
 
-    let rot_scale = model.rot_scale().sqrt();
     let estimates: Vec<Estimate> = pass
         .poses
         .iter()
         .zip(&pass.parts)
         .zip(&pass.rot_spread)
         .map(|((&pose, parts), spread)| {
-            let cov = model.calibrated_cov(parts);
-            Estimate {
-                pose,
-                pose3: None,
-                sigma_pos_m: cov.trace().sqrt(),
-                cov_pos_m2: cov,
-                sigma_rot_deg: (spread * rot_scale).to_degrees(),
-                passes: CALIBRATION_MC,
-            }
+            model
+                .loc
+                .estimate_from_parts(pose, parts, spread.to_degrees(), CALIBRATION_MC)
         })
         .collect();
     let walk = track::calibrate::Walk {
