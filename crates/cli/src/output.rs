@@ -1,25 +1,25 @@
-//! Printing results: one JSON document on stdout with `--json`, a table for people otherwise.
+//! Results on stdout: one JSON document with `--json`, text for people otherwise.
 
-use serde::Serialize;
+use lab::{LabError, Output};
 use std::io::Write;
 
-/// Prints `value` as one pretty JSON document on stdout.
-pub fn print_json<T: Serialize>(value: &T) -> anyhow::Result<()> {
-    let mut out = std::io::stdout().lock();
-    serde_json::to_writer_pretty(&mut out, value)?;
-    writeln!(out)?;
-    Ok(())
-}
+/// Writes results to stdout.
+pub struct Stdout(pub std::io::Stdout);
 
-/// Prints text for people on stdout.
-pub fn print_text(text: &str) -> anyhow::Result<()> {
-    let mut out = std::io::stdout().lock();
-    out.write_all(text.as_bytes())?;
-    Ok(())
-}
+impl Output for Stdout {
+    fn json(&mut self, document: &str) -> Result<(), LabError> {
+        let mut out = std::io::stdout().lock();
+        writeln!(out, "{document}")?;
+        Ok(())
+    }
 
-/// Median of timings or other figures; NaN for none (shown as such rather than failing a run
-/// whose every image was bad).
-pub fn median(values: &[f64]) -> f64 {
-    geom::metrics::Stats::of(values).map_or(f64::NAN, |s| s.median)
+    fn text(&mut self, text: &str) -> Result<(), LabError> {
+        let mut out = std::io::stdout().lock();
+        out.write_all(text.as_bytes())?;
+        Ok(())
+    }
+
+    fn stream(&mut self) -> &mut dyn Write {
+        &mut self.0
+    }
 }

@@ -1,0 +1,181 @@
+//! `indoorloc bench train` and `indoorloc bench infer`: the small network's training step (batch
+//! 32, at 1x120x160 and 3x256x256) and single-image inference (1x120x160 and 3x256x256, one
+//! thread and all threads), beside PyTorch running `torch_apr.py --arch small` with the same
+//! settings in the same run.
+
+use super::{Peer, VsPeer};
+use crate::{Context, Result};
+use learn::Arch;
+use learn::bench::{infer_ms, train_step_ms};
+use serde::Serialize;
+use std::process::Command;
+
+/// Inputs measured, `[C, H, W]`: the ceiling camera's view and PoseNet's.
+const INPUTS: [[usize; 3]; 2] = [[1, 120, 160], [3, 256, 256]];
+/// Images per training step.
+const BATCH: usize = 32;
+/// Untimed repetitions first.
+const WARMUP: usize = 3;
+
+/// One measured row.
+#[derive(Debug, Serialize)]
+pub struct LearnFigures {
+    /// `train` (ms per step of a batch) or `infer` (ms per image).
+    what: &'static str,
+    arch: &'static str,
+    /// `[C, H, W]`.
+    input: [usize; 3],
+    /// Batch size (1 for inference).
+    batch: usize,
+    threads: usize,
+    /// indoorloc, median milliseconds.
+    ms: f64,
+    /// PyTorch's median milliseconds in the same run beside ours.
+    #[serde(flatten)]
+    vs: VsPeer,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+/// Runs `f` on a rayon pool of `threads` threads (burn's `flex` backend parallelises on the
+/// current rayon pool).
+fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> Result<T> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("cannot start a thread pool")?;
+    Ok(pool.install(f))
+}
+
+/// `torch_apr.py`'s JSON for one input shape and thread count.
+fn torch(
+    peer: &Peer,
+    input: [usize; 3],
+    threads: usize,
+    steps: usize,
+    runs: usize,
+) -> Result<serde_json::Value> {
+    let [c, h, w] = input;
+    let out = Command::new(&peer.python)
+        .arg(peer.dir.join("torch_apr.py"))
+        .args(["--arch", "small", "--batch", &BATCH.to_string()])
+        .args([
+            "--channels",
+            &c.to_string(),
+            "--height",
+            &h.to_string(),
+            "--width",
+            &w.to_string(),
+        ])
+        .args([
+            "--steps",
+            &steps.to_string(),
+            "--infer-runs",
+            &runs.to_string(),
+        ])
+        .args([
+            "--threads",
+            &threads.to_string(),
+            "--warmup",
+            &WARMUP.to_string(),
+        ])
+        .output()
+        .context("cannot run torch_apr.py")?;
+    crate::ensure!(
+        out.status.success(),
+        "torch_apr.py failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+            .lines()
+            .last()
+            .unwrap_or("")
+    );
+    serde_json::from_slice(&out.stdout).context("torch_apr.py printed no JSON")
+}
+
+/// Measures `train` rows (`with_train`) and `infer` rows (`with_infer`) with `steps` timed
+/// training steps and `runs` timed inferences each.
+pub fn bench(
+    with_train: bool,
+    with_infer: bool,
+    steps: usize,
+    runs: usize,
+    peer: Result<Peer>,
+) -> Result<Vec<LearnFigures>> {
+    let all = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut thread_counts = vec![1, all];
+    thread_counts.dedup();
+    let mut rows = Vec::new();
+    for input in INPUTS {
+        for &threads in &thread_counts {
+            // Training is measured with every thread only, as PyTorch trains by default.
+            let train = with_train && threads == all;
+            let (peer_json, peer_note) = match &peer {
+                Ok(p) if train || with_infer => {
+                    match torch(p, input, threads, if train { steps } else { 1 }, runs) {
+                        Ok(v) => (Some(v), None),
+                        Err(e) => (None, Some(format!("{e:#}"))),
+                    }
+                }
+                Ok(_) => (None, None),
+                Err(e) => (None, Some(format!("{e:#}"))),
+            };
+            let peer_ms = |key: &str| peer_json.as_ref().and_then(|v| v[key].as_f64());
+            let mut row = |what, batch, ms: f64, peer: Option<f64>| {
+                rows.push(LearnFigures {
+                    what,
+                    arch: "small",
+                    input,
+                    batch,
+                    threads,
+                    ms,
+                    vs: VsPeer::new("PyTorch torch_apr.py", ms, peer, peer_note.clone()),
+                });
+            };
+            if train {
+                let ms = median(on_threads(threads, || {
+                    train_step_ms(Arch::Small, input, BATCH, WARMUP, steps)
+                })??);
+                row("train", BATCH, ms, peer_ms("train_ms_per_step"));
+            }
+            if with_infer {
+                let ms = median(on_threads(threads, || {
+                    infer_ms(Arch::Small, input, WARMUP, runs)
+                })??);
+                row("infer", 1, ms, peer_ms("infer_ms_per_image"));
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// The rows as a table for people.
+pub fn table(rows: &[LearnFigures]) -> String {
+    if rows.is_empty() {
+        return String::new();
+    }
+    let mut text = format!(
+        "{:<7}{:>12}{:>7}{:>9}{:>11}{:>11}{:>9}\n",
+        "learn", "input", "batch", "threads", "ms", "PyTorch", "ratio"
+    );
+    for r in rows {
+        let [c, h, w] = r.input;
+        text.push_str(&format!(
+            "{:<7}{:>12}{:>7}{:>9}{:>11.2}{:>11}{:>9}\n",
+            r.what,
+            format!("{c}x{h}x{w}"),
+            r.batch,
+            r.threads,
+            r.ms,
+            r.vs.peer_ms.map_or("–".into(), |p| format!("{p:.2}")),
+            r.vs.ratio_vs_peer
+                .map_or("–".into(), |x| format!("{x:.2}x")),
+        ));
+    }
+    if let Some(note) = rows.iter().find_map(|r| r.vs.peer_note.as_ref()) {
+        text.push_str(&format!("PyTorch not measured: {note}\n"));
+    }
+    text
+}
