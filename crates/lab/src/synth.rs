@@ -142,7 +142,15 @@ pub fn run(args: &SynthCommand, sink: &mut dyn crate::Output) -> Result<()> {
         warnings: Vec::new(),
     };
     if let Some(path) = &args.preview {
-        let png = synth::preview::contact_sheet(&cfg)?;
+        let preview = synth::preview::render(&cfg)?;
+        let columns = preview.columns();
+        let tiles: Vec<report::Tile> = (preview.rows.into_iter().flatten())
+            .map(|t| report::Tile {
+                label: t.label,
+                image: t.image,
+            })
+            .collect();
+        let png = report::contact_sheet(&preview.title, &tiles, columns)?;
         report::write_atomic(path, &png)?;
         output.preview = Some(path.clone());
     }

@@ -1,5 +1,8 @@
 //! `indoorloc synth --preview`: one pose rendered in every mode under every appearance variant,
-//! as a contact sheet, so a person can judge at a glance what the networks will be trained on.
+//! for a contact sheet, so a person can judge at a glance what the networks will be trained on.
+//!
+//! [`render`] gives the pictures as plain data, arranged in rows; the caller draws the sheet
+//! (the command line with `report::contact_sheet`), so that `synth` needs no plotting.
 
 use crate::dataset::{SynthConfig, build_world, rig_of};
 use crate::error::{Result, SynthError};
@@ -12,8 +15,34 @@ use rayon::prelude::*;
 /// Frames walked before the preview pose is taken, so the camera is well inside a corridor.
 const PREVIEW_FRAME: usize = 20;
 
-/// PNG bytes of the contact sheet: one row per variant, one column per render mode.
-pub fn contact_sheet(cfg: &SynthConfig) -> Result<Vec<u8>> {
+/// One picture of the preview.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tile {
+    /// Caption: the variant and the render mode, `normal · textured`.
+    pub label: String,
+    /// The render.
+    pub image: image::RgbImage,
+}
+
+/// The preview's pictures: one row per appearance variant ([`Variant::ALL`]'s order), one column
+/// per render mode.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Preview {
+    /// Title of the sheet: the building and the time of the pose.
+    pub title: String,
+    /// The rows, every one as long.
+    pub rows: Vec<Vec<Tile>>,
+}
+
+impl Preview {
+    /// Pictures per row: the number of render modes.
+    pub fn columns(&self) -> usize {
+        self.rows.first().map_or(0, Vec::len)
+    }
+}
+
+/// Renders the preview: one row per variant, one column per render mode.
+pub fn render(cfg: &SynthConfig) -> Result<Preview> {
     let rig = rig_of(cfg.camera);
     let camera = trajectory::camera_for(&rig, cfg.width, cfg.height, cfg.seed)?;
     let normal = SynthConfig {
@@ -33,9 +62,9 @@ pub fn contact_sheet(cfg: &SynthConfig) -> Result<Vec<u8>> {
         RenderMode::Edges,
         RenderMode::Gradmag,
     ];
-    let rows: Vec<Vec<report::Tile>> = Variant::ALL
+    let rows: Vec<Vec<Tile>> = Variant::ALL
         .par_iter()
-        .map(|&variant| -> Result<Vec<report::Tile>> {
+        .map(|&variant| -> Result<Vec<Tile>> {
             let (mut world, _) = build_world(&SynthConfig {
                 variant,
                 ..cfg.clone()
@@ -63,7 +92,7 @@ pub fn contact_sheet(cfg: &SynthConfig) -> Result<Vec<u8>> {
                         ..RenderOptions::default()
                     };
                     let out = renderer.render(&scene, &camera, &shot.pose, &opts, &extra)?;
-                    Ok(report::Tile {
+                    Ok(Tile {
                         label: format!("{} · {mode}", variant.name()),
                         image: out.rgb.clone(),
                     })
@@ -71,11 +100,9 @@ pub fn contact_sheet(cfg: &SynthConfig) -> Result<Vec<u8>> {
                 .collect()
         })
         .collect::<Result<_>>()?;
-    let tiles: Vec<report::Tile> = rows.into_iter().flatten().collect();
     let title = format!(
         "{} at t = {:.1} s: render modes × appearance variants",
         world.name, shot.t
     );
-    report::contact_sheet(&title, &tiles, modes.len())
-        .map_err(|e| SynthError::Config(format!("contact sheet: {e}")))
+    Ok(Preview { title, rows })
 }
