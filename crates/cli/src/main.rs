@@ -87,7 +87,7 @@ fn main() -> ExitCode {
                 // `indoorloc eval ... | head` is not a failure.
                 return ExitCode::SUCCESS;
             }
-            eprintln!("indoorloc: {}", one_line(&chain(&err)));
+            eprintln!("indoorloc: {}", one_line(&lab::error::chain(&err)));
             ExitCode::from(2)
         }
     }
@@ -95,18 +95,6 @@ fn main() -> ExitCode {
 
 fn is_broken_pipe(err: &lab::LabError) -> bool {
     err.is_broken_pipe()
-}
-
-/// The error and its causes, `: `-separated.
-fn chain(err: &lab::LabError) -> String {
-    let mut text = err.to_string();
-    let mut cause = std::error::Error::source(err);
-    while let Some(c) = cause {
-        text.push_str(": ");
-        text.push_str(&c.to_string());
-        cause = c.source();
-    }
-    text
 }
 
 /// Error messages are promised to be one line; library messages that quote input could carry a

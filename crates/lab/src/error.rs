@@ -151,3 +151,15 @@ macro_rules! ensure {
 }
 
 pub(crate) use {bail, ensure, err};
+
+/// `err` and its causes, `: `-separated (as the binary prints an error).
+pub fn chain(err: &dyn std::error::Error) -> String {
+    let mut text = err.to_string();
+    let mut cause = err.source();
+    while let Some(c) = cause {
+        text.push_str(": ");
+        text.push_str(&c.to_string());
+        cause = c.source();
+    }
+    text
+}

@@ -10,7 +10,7 @@
 pub mod bench;
 pub mod calibrate;
 pub mod demo;
-mod error;
+pub mod error;
 pub mod eval;
 pub mod explain;
 pub mod localize;

@@ -2,21 +2,21 @@
 //! done (JSON lines as DESIGN.md specifies, or TUM), so a pipe sees poses while a long input is
 //! still being read.
 
-use crate::{Context, Result, bail};
+use crate::{Result, bail};
 use clap::{Args, ValueEnum};
 use data::blocks::BlockSplit;
-use data::frames::{self, FrameSource};
-use data::native::SplitName;
 use data::posed::{self, SplitPlan};
+use learn::Localizer;
 use learn::place::{PlaceLocalizer, PlaceMeta, PlacePrediction};
-use learn::seq::{SeqLocalizer, SeqMeta, SeqTracker};
-use learn::{Estimate, Localizer};
+use learn::seq::{SeqLocalizer, SeqMeta};
 use map::retrieval::RetrievalIndex;
 use serde::Serialize;
-use std::collections::VecDeque;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use track::{
+    Estimation, Estimator, MapEstimator, NetworkEstimator, Recorded, RetrievalEstimator,
+    SequenceEstimator, Stages,
+};
 
 /// Output formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -38,6 +38,17 @@ pub enum Split {
     Val,
     /// The test sequences.
     Test,
+}
+
+impl From<Split> for track::Split {
+    fn from(s: Split) -> track::Split {
+        match s {
+            Split::All => track::Split::All,
+            Split::Train => track::Split::Train,
+            Split::Val => track::Split::Val,
+            Split::Test => track::Split::Test,
+        }
+    }
 }
 
 /// Arguments of `indoorloc localize`.
@@ -109,15 +120,6 @@ pub struct LocalizeConfig {
     /// own cuts.csv, new sequences and gaps in frame numbers always start them over.
     #[arg(long, value_name = "FILE")]
     cuts: Option<PathBuf>,
-}
-
-/// Which model localizes: the single-frame network, or a sequence model's live tracker.
-// One per run, never stored in bulk: the size difference of the variants costs nothing.
-#[allow(clippy::large_enum_variant)]
-enum Estimator<'a> {
-    Single(Localizer),
-    Sequence(&'a SeqLocalizer, SeqTracker<'a>),
-    Retrieval(RetrievalIndex),
 }
 
 /// The place and sequence models in the folder `model`, as the options ask for them; checks
@@ -216,45 +218,26 @@ pub struct PoseFields {
 }
 
 impl PoseFields {
-    /// The fields of `est`.
-    pub fn of(est: &Estimate) -> Self {
-        PoseFields {
-            position: est.pose.position(),
-            quaternion: est.pose.quat_wxyz(),
-            pose3: est.pose3.map(|p| [p.x, p.y, p.heading]),
-            sigma_pos_m: est.sigma_pos_m,
-            sigma_rot_deg: est.sigma_rot_deg,
-            cov_pos_m2: std::array::from_fn(|k| est.cov_pos_m2[(k / 3, k % 3)]),
-            refined: None,
-            inliers: None,
-            fallback: None,
-        }
-    }
-
-    /// The fields of a map refinement of a coarse estimate (`None`: the map alone).
-    pub fn refined(coarse: Option<&Estimate>, r: &map::Refinement) -> Self {
-        let mut out = match (coarse, r.refined) {
-            (Some(est), false) => PoseFields::of(est),
-            _ => {
-                let cov = r.cov_pos_m2.unwrap_or_else(nalgebra::Matrix3::zeros);
-                let rot = r.cov_rot_rad2.unwrap_or_else(nalgebra::Matrix3::zeros);
-                PoseFields {
-                    position: r.pose.position(),
-                    quaternion: r.pose.quat_wxyz(),
-                    pose3: None,
-                    sigma_pos_m: cov.trace().max(0.0).sqrt(),
-                    sigma_rot_deg: rot.trace().max(0.0).sqrt().to_degrees(),
-                    cov_pos_m2: std::array::from_fn(|k| cov[(k / 3, k % 3)]),
-                    refined: None,
-                    inliers: None,
-                    fallback: None,
-                }
-            }
+    /// The fields of a frame's last estimate: the estimator's own figures where it states
+    /// them (a network's sigmas and 3-DoF pose), else those of its covariance; with a map, its
+    /// note on the frame.
+    pub fn of(e: &Estimation) -> Self {
+        let (pose3, sigma_pos_m, sigma_rot_deg) = match e.stated {
+            Some(s) => (s.pose3, s.sigma_pos_m, s.sigma_rot_deg),
+            None => (None, e.sigma_pos_m(), e.sigma_rot_rad.to_degrees()),
         };
-        out.refined = Some(r.refined);
-        out.inliers = Some(r.inliers);
-        out.fallback = r.fallback.as_ref().map(ToString::to_string);
-        out
+        let note = e.refinement.as_ref();
+        PoseFields {
+            position: e.pose.position(),
+            quaternion: e.pose.quat_wxyz(),
+            pose3: pose3.map(|p| [p.x, p.y, p.heading]),
+            sigma_pos_m,
+            sigma_rot_deg,
+            cov_pos_m2: std::array::from_fn(|k| e.cov_pos_m2[(k / 3, k % 3)]),
+            refined: note.map(|n| n.refined),
+            inliers: note.map(|n| n.inliers),
+            fallback: note.and_then(|n| n.fallback.clone()),
+        }
     }
 }
 
@@ -309,17 +292,9 @@ impl PoseLine {
     }
 }
 
-/// One frame to localise: where its pixels come from and what to call it.
-struct Item {
-    name: String,
-    seq: Option<String>,
-    t: Option<f64>,
-    /// The frame starts a new stretch of time (a cut or a gap in a native dataset).
-    new_scene: bool,
-    image: Result<image::DynamicImage>,
-}
-
-/// Runs `indoorloc localize`.
+/// Runs `indoorloc localize`: the frames through [`track::Recorded`] with the estimators the
+/// options name (network or sequence model, or retrieval; then the map), no filter, and the
+/// place model along the walk.
 pub fn run(args: &LocalizeConfig, sink: &mut dyn crate::Output) -> Result<()> {
     let (places, sequence) = match (&args.retrieve, &args.model) {
         (None, Some(model)) => load_models(args, model)?,
@@ -328,190 +303,93 @@ pub fn run(args: &LocalizeConfig, sink: &mut dyn crate::Output) -> Result<()> {
         }
         _ => (None, None),
     };
-    let keyframe_map = args.map.as_deref().map(map::file::load).transpose()?;
     if !(args.gate_sigmas > 0.0 && args.gate_floor >= 0.0) {
         bail!("--gate-sigmas must be > 0 and --gate-floor ≥ 0");
     }
-    let refine_cfg = map::RefineConfig {
-        gate_sigmas: args.gate_sigmas,
-        gate_floor_m: args.gate_floor,
-        ..map::RefineConfig::default()
-    };
-    let mut estimator = match &args.retrieve {
-        Some(path) => Some(Estimator::Retrieval(retrieval_index(path, args.blocks)?)),
-        None => None,
-    };
+    if args.place_lag.is_nan() || args.place_lag < 0.0 {
+        bail!("--place-lag {}: must be 0 or more seconds", args.place_lag);
+    }
     let place_only = places.is_some()
         && args
             .model
             .as_ref()
             .is_some_and(|m| !m.join(learn::checkpoint::MODEL_TOML).is_file());
-    if estimator.is_none() {
-        estimator = match &sequence {
-            Some(seq) => Some(Estimator::Sequence(seq, seq.tracker(args.mc))),
-            None if place_only => None,
-            None => args
-                .model
-                .as_ref()
-                .map(|m| -> Result<Estimator<'_>> {
-                    Ok(Estimator::Single(
-                        Localizer::load(m)?
-                            .with_tta(args.tta)
-                            .with_seed(args.mc_seed),
-                    ))
-                })
-                .transpose()?,
+    let mut estimators: Vec<Box<dyn Estimator + Send + '_>> = Vec::new();
+    match (&args.retrieve, &sequence, &args.model) {
+        (Some(path), _, _) => estimators.push(Box::new(RetrievalEstimator::new(retrieval_index(
+            path,
+            args.blocks,
+        )?))),
+        (None, Some(seq), _) => estimators.push(Box::new(SequenceEstimator::new(seq, args.mc))),
+        (None, None, Some(model)) if !place_only => {
+            estimators.push(Box::new(NetworkEstimator::from_localizer(
+                Localizer::load(model)?
+                    .with_tta(args.tta)
+                    .with_seed(args.mc_seed),
+                args.mc,
+            )))
+        }
+        _ => {}
+    }
+    if let Some(path) = &args.map {
+        let refine = map::RefineConfig {
+            gate_sigmas: args.gate_sigmas,
+            gate_floor_m: args.gate_floor,
+            ..map::RefineConfig::default()
         };
+        let mut map = MapEstimator::new(map::file::load(path)?, refine);
+        if estimators.is_empty() {
+            map = map.alone();
+        }
+        estimators.push(Box::new(map));
     }
-    if args.place_lag.is_nan() || args.place_lag < 0.0 {
-        bail!("--place-lag {}: must be 0 or more seconds", args.place_lag);
+    let mut recorded = Recorded::new(Stages::new(estimators, None, false));
+    if let Some(loc) = &places {
+        // A place model follows the walk unless each frame is to stand alone.
+        recorded = recorded.with_places(loc, (!args.single).then_some(args.place_lag));
     }
-    // A place model follows the walk unless each frame is to stand alone.
-    let mut place_tracker = places
-        .as_ref()
-        .filter(|_| !args.single)
-        .map(|loc| (loc, loc.tracker(args.place_lag)));
-    // Lines whose place is still to be told (the tracker's lag), oldest first.
-    let mut waiting: VecDeque<(usize, PoseLine)> = VecDeque::new();
-    let cuts = match &args.cuts {
-        Some(path) => data::cuts::read(path)?,
-        None => Vec::new(),
-    };
-    let mut last_seq: Option<Option<String>> = None;
-    let items = frames_of(&args.input, args.split, args.blocks)?;
+    if let Some(path) = &args.cuts {
+        recorded = recorded.with_cuts(data::cuts::read(path)?.into_iter().collect());
+    }
+    if !posed::is_dataset(&args.input) && (args.split != Split::All || args.blocks.is_some()) {
+        bail!(
+            "{}: --split and --blocks need a posed dataset (native, 7-Scenes, TUM, COLMAP, \
+             Cambridge, NeRF)",
+            args.input.display()
+        );
+    }
+    let frames = track::frames(&args.input, args.split.into(), args.blocks)?.inspect(|f| {
+        if let Err(e) = &f.image {
+            crate::progress::note(&format!("indoorloc: skipped: {}", crate::error::chain(e)));
+        }
+    });
     let mut buffer = Vec::new();
     let w: &mut dyn Write = if args.out.is_some() {
         &mut buffer
     } else {
         sink.stream()
     };
-    let mut bad = Vec::new();
-    let mut done = 0usize;
-    for (index, item) in items.enumerate() {
-        let img = match item.image {
-            Ok(img) => img,
-            Err(e) => {
-                crate::progress::note(&format!("indoorloc: skipped: {e:#}"));
-                bad.push(item.name);
-                continue;
-            }
-        };
-        let t0 = Instant::now();
-        let starts_over = item.new_scene
-            || cuts.binary_search(&(index as u64)).is_ok()
-            || last_seq.as_ref().is_some_and(|s| *s != item.seq);
-        last_seq = Some(item.seq.clone());
-        let est = match &mut estimator {
-            None => None,
-            Some(Estimator::Sequence(seq, tracker)) => {
-                if starts_over {
-                    tracker.reset();
-                }
-                let view = seq.base().view(&img)?;
-                Some(tracker.step(&view))
-            }
-            Some(Estimator::Single(loc)) => Some(loc.predict(&img, args.mc)),
-            Some(Estimator::Retrieval(index)) => Some(
-                index
-                    .localize(&img)
-                    .map(|r| Estimate {
-                        pose: r.pose,
-                        pose3: None,
-                        sigma_pos_m: r.sigma_pos_m,
-                        cov_pos_m2: nalgebra::Matrix3::identity() * (r.sigma_pos_m.powi(2) / 3.0),
-                        sigma_rot_deg: r.sigma_rot_deg,
-                        passes: 0,
-                    })
-                    .map_err(|e| learn::LearnError::Input(e.to_string())),
-            ),
-        }
-        .transpose()
-        .with_context(|| format!("frame {}", item.name))?;
-        let pose = match &keyframe_map {
-            Some(km) => {
-                let coarse = est.as_ref().map(|e| map::Coarse {
-                    pose: e.pose,
-                    sigma_pos_m: e.sigma_pos_m,
-                });
-                let r = km
-                    .refine(&img, coarse.as_ref(), &refine_cfg)
-                    .with_context(|| {
-                        let map = args.map.as_deref().unwrap_or(Path::new("")).display();
-                        format!("frame {} against {map}", item.name)
-                    })?;
-                Some(PoseFields::refined(est.as_ref(), &r))
-            }
-            None => est.as_ref().map(PoseFields::of),
-        };
-        let (place, told) = match &mut place_tracker {
-            Some((loc, tracker)) => {
-                if starts_over {
-                    tell(&mut waiting, tracker.finish(), args.format, w)?;
-                }
-                let told = tracker
-                    .step(&loc.view(&img)?, item.t)
-                    .with_context(|| format!("frame {}", item.name))?;
-                (None, Some(told))
-            }
-            None => {
-                let place = places.as_ref().map(|p| p.predict(&img)).transpose();
-                (place.with_context(|| format!("frame {}", item.name))?, None)
-            }
-        };
+    let summary = recorded.run(frames, |out| -> Result<()> {
         let line = PoseLine {
-            frame: item.name,
-            seq: item.seq,
-            t: item.t,
-            pose,
-            place: place.as_ref().map(PlaceField::of),
-            latency_ms: t0.elapsed().as_secs_f64() * 1e3,
+            frame: out.name,
+            seq: out.seq,
+            t: out.t,
+            pose: out.processed.last().map(PoseFields::of),
+            place: out.place.as_ref().map(PlaceField::of),
+            latency_ms: out.latency_ms,
         };
-        match told {
-            Some(told) => {
-                waiting.push_back((index, line));
-                tell(&mut waiting, told, args.format, w)?;
-            }
-            None => line.write(args.format, index, w)?,
-        }
-        done += 1;
-    }
-    if let Some((_, tracker)) = &mut place_tracker {
-        tell(&mut waiting, tracker.finish(), args.format, w)?;
-    }
-    if let Some((_, line)) = waiting.front() {
-        bail!(
-            "frame {}: the place tracker never told its place",
-            line.frame
-        );
-    }
+        line.write(args.format, out.index, w)
+    })?;
     if let Some(path) = &args.out {
         data::io::write_atomic(path, |f| f.write_all(&buffer))?;
     }
-    if !bad.is_empty() {
+    if let Some(first) = summary.unreadable.first() {
         bail!(
-            "{}: {} of {} frames could not be read (first: {}); the others were localised",
+            "{}: {} of {} frames could not be read (first: {first}); the others were localised",
             args.input.display(),
-            bad.len(),
-            bad.len() + done,
-            bad[0]
+            summary.unreadable.len(),
+            summary.unreadable.len() + summary.done,
         );
-    }
-    Ok(())
-}
-
-/// Writes the waiting lines whose places have been `told` (oldest first, one place per line).
-fn tell(
-    waiting: &mut VecDeque<(usize, PoseLine)>,
-    told: Vec<PlacePrediction>,
-    format: OutFormat,
-    w: &mut dyn Write,
-) -> Result<()> {
-    for place in told {
-        let (index, mut line) = waiting
-            .pop_front()
-            .context("the place tracker told more places than frames it was given")?;
-        line.place = Some(PlaceField::of(&place));
-        line.write(format, index, w)?;
     }
     Ok(())
 }
@@ -536,76 +414,4 @@ fn check_mount(model: &Path, input: &Path) -> Result<()> {
         );
     }
     Ok(())
-}
-
-/// The frames of `input`, decoded lazily: a posed dataset's frames (of `split`, from
-/// [`data::posed::open`] in any layout it reads), or any frame source `data::frames` opens
-/// (image, image folder, video). A dataset's new sequences, gaps in its frames (frames of
-/// another split between) and its own cuts start a new scene. Frames keep the reader's names
-/// and sequences, so `eval` pairs the output with the same poses.
-fn frames_of(
-    input: &Path,
-    split: Split,
-    blocks: Option<BlockSplit>,
-) -> Result<Box<dyn Iterator<Item = Item>>> {
-    if posed::is_dataset(input) {
-        let ds = posed::open(input)?;
-        let plan = blocks.map_or(SplitPlan::Auto, SplitPlan::Blocks);
-        let parts = ds.parts(plan);
-        let want = match split {
-            Split::All => None,
-            Split::Train => Some(SplitName::Train),
-            Split::Val => Some(SplitName::Val),
-            Split::Test => Some(SplitName::Test),
-        };
-        let indices: Vec<usize> = (0..ds.images.len())
-            .filter(|&i| want.is_none_or(|w| parts[i] == Some(w)))
-            .collect();
-        if indices.is_empty() {
-            bail!(
-                "{}: the {split:?} split has no frames ({})",
-                input.display(),
-                ds.describe_split(plan)
-            );
-        }
-        let mut previous: Option<usize> = None;
-        return Ok(Box::new(indices.into_iter().map(move |i| {
-            let img = &ds.images[i];
-            let new_seq = i > 0 && ds.images[i - 1].frame.seq != img.frame.seq;
-            let gap = previous.is_some_and(|p| p + 1 != i);
-            previous = Some(i);
-            let f = &img.frame;
-            Item {
-                name: f.name.clone(),
-                seq: (!f.seq.is_empty()).then(|| f.seq.clone()),
-                t: f.t,
-                new_scene: gap || new_seq || ds.cuts.binary_search(&i).is_ok(),
-                image: frames::decode_image(&img.image).map_err(Into::into),
-            }
-        })));
-    }
-    if split != Split::All || blocks.is_some() {
-        bail!(
-            "{}: --split and --blocks need a posed dataset (native, 7-Scenes, TUM, COLMAP, \
-             Cambridge, NeRF)",
-            input.display()
-        );
-    }
-    let source: Box<dyn FrameSource + Send> = frames::open(input)?;
-    Ok(Box::new(source.enumerate().map(|(i, r)| match r {
-        Ok(f) => Item {
-            name: f.name,
-            seq: None,
-            t: f.t,
-            new_scene: false,
-            image: Ok(image::DynamicImage::ImageRgb8(f.image)),
-        },
-        Err(e) => Item {
-            name: format!("{i:06}"),
-            seq: None,
-            t: None,
-            new_scene: false,
-            image: Err(e.into()),
-        },
-    })))
 }

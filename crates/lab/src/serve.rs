@@ -16,8 +16,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use track::{
-    Estimator, Event, MapEstimator, MarkerEstimator, Metrics, NetworkEstimator, Pipeline,
-    PipelineConfig,
+    Event, MapEstimator, MarkerEstimator, Metrics, NetworkEstimator, Pipeline, PipelineConfig,
 };
 
 /// Arguments of `indoorloc serve`.
@@ -258,7 +257,7 @@ fn plan(args: &ServeConfig) -> Result<Plan> {
 /// The estimators and source of `plan`, joined into a pipeline.
 fn build_pipeline(args: &ServeConfig, plan: &Plan) -> Result<Pipeline> {
     let source = track::source::open(&plan.source, plan.split, args.fps)?;
-    let mut estimators: Vec<Box<dyn Estimator>> = Vec::new();
+    let mut estimators: Vec<track::BoxedEstimator> = Vec::new();
     let mut filter = track::FilterConfig::default();
     if let Some(dir) = &plan.model {
         let net = NetworkEstimator::load(dir, args.mc)?.with_tta(args.tta);

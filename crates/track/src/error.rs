@@ -39,6 +39,15 @@ pub enum TrackError {
         /// The error.
         source: std::io::Error,
     },
+    /// A stage failed on a frame.
+    #[error("frame {name}")]
+    Frame {
+        /// The frame's name.
+        name: String,
+        /// What failed.
+        #[source]
+        source: Box<TrackError>,
+    },
     /// Settings that do not fit together.
     #[error("{0}")]
     Config(String),

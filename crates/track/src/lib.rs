@@ -14,13 +14,20 @@ pub mod estimator;
 mod filter;
 mod pipeline;
 mod queue;
+mod recorded;
 pub mod source;
+mod stages;
 mod stats;
 
 pub use error::{Result, TrackError};
-pub use estimator::{Estimation, Estimator, MapEstimator, MarkerEstimator, NetworkEstimator};
+pub use estimator::{
+    BoxedEstimator, Estimation, Estimator, MapEstimator, MarkerEstimator, NetworkEstimator,
+    RefinementNote, RetrievalEstimator, SequenceEstimator, Stated,
+};
 pub use filter::{FilterConfig, Fused, Measurement, PoseFilter, Update};
 pub use pipeline::{Event, Latency, Pipeline, PipelineConfig, PoseEvent, RawEstimate, Truth};
 pub use queue::{FrameQueue, Overflow};
+pub use recorded::{Recorded, RecordedFrame, RecordedOutput, RunSummary, Split, frames};
 pub use source::{Source, SourceFrame};
+pub use stages::{Processed, Stages};
 pub use stats::{BUCKETS_S, Metrics, MetricsSnapshot, Stage, StageSnapshot};

@@ -7,14 +7,14 @@
 //! time goes into the shared [`Metrics`].
 
 use crate::error::{Result, TrackError};
-use crate::estimator::{Estimation, Estimator};
-use crate::filter::{FilterConfig, Fused, PoseFilter, Update};
+use crate::estimator::BoxedEstimator;
+use crate::filter::FilterConfig;
 use crate::queue::{FrameQueue, Overflow};
 use crate::source::{Source, SourceFrame};
+use crate::stages::Stages;
 use crate::stats::{Metrics, Stage};
 use geom::Pose;
-use image::RgbImage;
-use nalgebra::Matrix3;
+use image::{DynamicImage, RgbImage};
 use serde::Serialize;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -182,7 +182,7 @@ enum Item {
 /// A source, its estimators and the filter, ready to run.
 pub struct Pipeline {
     source: Box<dyn Source>,
-    estimators: Vec<Box<dyn Estimator>>,
+    estimators: Vec<BoxedEstimator>,
     cfg: PipelineConfig,
     metrics: Arc<Metrics>,
     stop: Arc<AtomicBool>,
@@ -192,7 +192,7 @@ impl Pipeline {
     /// A pipeline from `source` through `estimators` (at least one).
     pub fn new(
         source: Box<dyn Source>,
-        estimators: Vec<Box<dyn Estimator>>,
+        estimators: Vec<BoxedEstimator>,
         cfg: PipelineConfig,
     ) -> Result<Pipeline> {
         if estimators.is_empty() {
@@ -211,7 +211,7 @@ impl Pipeline {
 
     /// The pipeline with one more estimator after the others (it sees their estimate of each
     /// frame as its prior).
-    pub fn with_estimator(mut self, estimator: Box<dyn Estimator>) -> Pipeline {
+    pub fn with_estimator(mut self, estimator: BoxedEstimator) -> Pipeline {
         self.estimators.push(estimator);
         self
     }
@@ -244,7 +244,7 @@ impl Pipeline {
     pub fn run(self, mut sink: impl FnMut(&Event, Option<&RgbImage>)) -> Event {
         let Pipeline {
             mut source,
-            mut estimators,
+            estimators,
             cfg,
             metrics,
             stop,
@@ -263,7 +263,7 @@ impl Pipeline {
                 read_frames(&mut *source, &queue, &metrics, &stop, realtime, max_frames);
             })
         };
-        let mut worker = Worker::new(&cfg, &metrics);
+        let mut worker = Worker::new(&cfg, estimators, &metrics);
         let mut last = None;
         while let Some(item) = queue.pop() {
             match item {
@@ -271,19 +271,30 @@ impl Pipeline {
                     frame,
                     read_at,
                     read_s,
-                } => match worker.process(&mut estimators, &frame, read_at, read_s) {
-                    Ok(event) => {
-                        last = Some(frame.frame.index);
-                        sink(&event, Some(&frame.frame.image));
+                } => {
+                    let SourceFrame { frame, truth } = frame;
+                    let index = frame.index;
+                    let image = DynamicImage::ImageRgb8(frame.image);
+                    let meta = FrameMeta {
+                        index,
+                        name: frame.name,
+                        t: frame.t.unwrap_or(0.0),
+                        truth,
+                    };
+                    match worker.process(&meta, &image, read_at, read_s) {
+                        Ok(event) => {
+                            last = Some(index);
+                            sink(&event, image.as_rgb8());
+                        }
+                        Err(e) => {
+                            worker.failure = Some(Event::Error {
+                                frame: Some(index),
+                                message: e.to_string(),
+                            });
+                            break;
+                        }
                     }
-                    Err(e) => {
-                        worker.failure = Some(Event::Error {
-                            frame: Some(frame.frame.index),
-                            message: e.to_string(),
-                        });
-                        break;
-                    }
-                },
+                }
                 Item::Failed(e) => {
                     worker.failure = Some(Event::Error {
                         frame: last.map(|f| f + 1),
@@ -366,20 +377,30 @@ fn read_frames(
     queue.close();
 }
 
-/// The estimation side: cut detector, estimators, filter.
+/// What the worker needs of a frame besides its pixels.
+struct FrameMeta {
+    index: u64,
+    name: String,
+    t: f64,
+    truth: Option<Pose>,
+}
+
+/// The estimation side: the frame's stages, and the counts of the run.
 struct Worker<'a> {
-    filter: PoseFilter,
-    cuts: Option<CutWatch>,
+    stages: Stages<'static>,
     metrics: &'a Metrics,
     processed: u64,
     failure: Option<Event>,
 }
 
 impl<'a> Worker<'a> {
-    fn new(cfg: &PipelineConfig, metrics: &'a Metrics) -> Worker<'a> {
+    fn new(
+        cfg: &PipelineConfig,
+        estimators: Vec<BoxedEstimator>,
+        metrics: &'a Metrics,
+    ) -> Worker<'a> {
         Worker {
-            filter: PoseFilter::new(cfg.filter),
-            cuts: cfg.detect_cuts.then(CutWatch::default),
+            stages: Stages::new(estimators, Some(cfg.filter), cfg.detect_cuts),
             metrics,
             processed: 0,
             failure: None,
@@ -388,70 +409,34 @@ impl<'a> Worker<'a> {
 
     fn process(
         &mut self,
-        estimators: &mut [Box<dyn Estimator>],
-        sf: &SourceFrame,
+        frame: &FrameMeta,
+        image: &DynamicImage,
         read_at: Instant,
         read_s: f64,
     ) -> Result<Event> {
         let started = Instant::now();
         let queue_s = (started - read_at).as_secs_f64() - read_s;
-        let frame = &sf.frame;
-        let t = frame.t.unwrap_or(0.0);
-        let cut = match &mut self.cuts {
-            Some(c) => c.push(frame.index, &frame.image)?,
-            None => false,
-        };
-        let mut raw: Vec<(&'static str, Estimation)> = Vec::with_capacity(estimators.len());
-        // What an estimator may start from: the last estimate of this frame, else where the
-        // filter expects the camera (none just after a cut).
-        let predicted = (!cut)
-            .then(|| self.filter.predict(t))
-            .flatten()
-            .map(|f| Estimation {
-                pose: f.pose,
-                cov_pos_m2: Matrix3::from_diagonal(&f.pos_var.into()),
-                sigma_rot_rad: f.sigma_rot_rad,
-            });
-        for e in estimators.iter_mut() {
-            let prior = raw.last().map(|(_, p)| *p).or(predicted);
-            if let Some(est) = e.estimate(&frame.image, prior.as_ref())? {
-                raw.push((e.name(), est));
-            }
-        }
-        let estimated = Instant::now();
-        if cut {
-            self.filter.reset();
+        let t = frame.t;
+        let p = self.stages.process(frame.index, image, t, false)?;
+        if p.cut {
             Metrics::count(&self.metrics.cuts);
         }
-        let mut fused: Option<Fused> = None;
-        for (_, est) in &raw {
-            let f = self.filter.push(&est.at(t));
-            if f.update == Update::Rejected {
-                Metrics::count(&self.metrics.rejected);
-            }
-            fused = Some(f);
+        for _ in 0..p.rejected {
+            Metrics::count(&self.metrics.rejected);
         }
-        let (fused, update) = match fused {
-            Some(f) => (Some(f), update_name(f.update)),
-            None => (self.filter.predict(t), "coasted"),
-        };
         let done = Instant::now();
-        let (estimate_s, filter_s) = (
-            (estimated - started).as_secs_f64(),
-            (done - estimated).as_secs_f64(),
-        );
         let total_s = (done - read_at).as_secs_f64();
         for (stage, s) in [
             (Stage::Queue, queue_s.max(0.0)),
-            (Stage::Estimate, estimate_s),
-            (Stage::Filter, filter_s),
+            (Stage::Estimate, p.estimate_s),
+            (Stage::Filter, p.filter_s),
             (Stage::Total, total_s),
         ] {
             self.metrics.record(stage, s);
         }
         self.processed += 1;
         Metrics::count(&self.metrics.poses);
-        let Some(fused) = fused else {
+        let Some((fused, update)) = p.fused else {
             return Err(TrackError::Config(format!(
                 "frame {}: no estimator saw anything and the filter has no state yet",
                 frame.index
@@ -468,9 +453,9 @@ impl<'a> Worker<'a> {
             sigma_rot_deg: fused.sigma_rot_rad.to_degrees(),
             covariance_pos: diag(fused.pos_var),
             update,
-            cut,
-            measurements: raw
-                .iter()
+            cut: p.cut,
+            measurements: p
+                .measurements()
                 .map(|(name, e)| RawEstimate {
                     estimator: name,
                     position: e.pose.position(),
@@ -480,15 +465,15 @@ impl<'a> Worker<'a> {
                     cov_pos_m2: std::array::from_fn(|k| e.cov_pos_m2[(k / 3, k % 3)]),
                 })
                 .collect(),
-            truth: sf.truth.map(|p| Truth {
+            truth: frame.truth.map(|p| Truth {
                 position: p.position(),
                 quaternion: p.quat_wxyz(),
             }),
             latency_ms: Latency {
                 read: ms(read_s),
                 queue: ms(queue_s.max(0.0)),
-                estimate: ms(estimate_s),
-                filter: ms(filter_s),
+                estimate: ms(p.estimate_s),
+                filter: ms(p.filter_s),
                 total: ms(total_s),
             },
             dropped: self.metrics.frames_dropped.load(Ordering::Relaxed),
@@ -496,43 +481,6 @@ impl<'a> Worker<'a> {
     }
 }
 
-fn update_name(u: Update) -> &'static str {
-    match u {
-        Update::Started => "started",
-        Update::Fused => "fused",
-        Update::Rejected => "rejected",
-    }
-}
-
 fn diag(v: [f64; 3]) -> [f64; 9] {
     [v[0], 0.0, 0.0, 0.0, v[1], 0.0, 0.0, 0.0, v[2]]
-}
-
-/// The streaming cut detector on thumbnails of the frames.
-#[derive(Default)]
-struct CutWatch {
-    detector: Option<scenecut::Detector>,
-    thumb: RgbImage,
-}
-
-impl CutWatch {
-    /// Feeds a frame; whether a cut was decided now. The detector decides a few frames after
-    /// the cut itself (its window), so the filter starts over a little late; gating covers the
-    /// frames in between.
-    fn push(&mut self, index: u64, image: &RgbImage) -> Result<bool> {
-        let (w, h) = image.dimensions();
-        if self.detector.is_none() {
-            let cfg = scenecut::Config::default();
-            let (tw, th) = cfg.thumb_size(w, h);
-            self.thumb = RgbImage::new(tw, th);
-            self.detector = Some(scenecut::Detector::new(cfg, tw, th)?);
-        }
-        let Some(det) = &mut self.detector else {
-            return Ok(false);
-        };
-        imgproc::view::resize_rgb(image, &mut self.thumb)
-            .map_err(|e| TrackError::Config(format!("cut thumbnail of frame {index}: {e}")))?;
-        let events = det.push(index, self.thumb.as_raw())?;
-        Ok(events.iter().any(|e| matches!(e, scenecut::Event::Cut(_))))
-    }
 }

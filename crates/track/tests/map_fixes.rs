@@ -5,7 +5,6 @@
 
 use data::posed::{self, PosedImage};
 use geom::Pose;
-use image::RgbImage;
 use map::{BuildConfig, RefineConfig};
 use nalgebra::Vector3;
 use std::path::Path;
@@ -25,7 +24,7 @@ impl Estimator for Biased {
 
     fn estimate(
         &mut self,
-        _image: &RgbImage,
+        _image: &image::DynamicImage,
         _prior: Option<&Estimation>,
     ) -> track::Result<Option<Estimation>> {
         let p = self.poses[self.next.min(self.poses.len() - 1)];
@@ -66,7 +65,7 @@ fn run(
     km: map::KeyframeMap,
 ) -> (Vec<(Pose, Option<Pose>)>, usize) {
     let source = track::source::open(source.to_str().unwrap(), None, Some(30.0)).unwrap();
-    let estimators: Vec<Box<dyn Estimator>> = vec![
+    let estimators: Vec<track::BoxedEstimator> = vec![
         Box::new(Biased { poses, next: 0 }),
         Box::new(MapEstimator::new(km, RefineConfig::default())),
     ];

@@ -5,7 +5,6 @@
 
 #![allow(dead_code)]
 
-use image::RgbImage;
 use std::sync::Arc;
 use track::source::RawFrames;
 use track::{Estimation, Estimator, Pipeline, PipelineConfig};
@@ -36,10 +35,10 @@ impl Estimator for PaintedPose {
 
     fn estimate(
         &mut self,
-        image: &RgbImage,
+        image: &image::DynamicImage,
         _prior: Option<&Estimation>,
     ) -> track::Result<Option<Estimation>> {
-        let x = f64::from(image.get_pixel(0, 0)[0]) / 10.0;
+        let x = f64::from(image.to_rgb8().get_pixel(0, 0)[0]) / 10.0;
         Ok(Some(Estimation::isotropic(
             geom::Pose::new(
                 nalgebra::UnitQuaternion::identity(),
