@@ -185,6 +185,17 @@ impl DatasetInfo {
         self.camera.to_camera()
     }
 
+    /// The `dataset.toml` of the native dataset at `root`, or `None` when `root` is not one
+    /// (the one place that tells a native dataset by its `dataset.toml`).
+    pub fn of(root: &Path) -> Result<Option<Self>> {
+        let path = root.join(DATASET_TOML);
+        if path.is_file() {
+            Self::read(&path).map(Some)
+        } else {
+            Ok(None)
+        }
+    }
+
     /// Reads and validates a `dataset.toml`.
     pub fn read(path: &Path) -> Result<Self> {
         let info: Self = read_toml(path)?;

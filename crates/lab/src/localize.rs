@@ -398,11 +398,10 @@ pub fn run(args: &LocalizeConfig, sink: &mut dyn crate::Output) -> Result<()> {
 /// records another mount (a ceiling camera's frames for a forward camera's model, or the other
 /// way) is refused, as its poses would be decoded in the wrong frame.
 fn check_mount(model: &Path, input: &Path) -> Result<()> {
-    let info_path = input.join(data::native::DATASET_TOML);
-    if !info_path.is_file() {
+    let Some(info) = data::native::DatasetInfo::of(input)? else {
         return Ok(());
-    }
-    let info = data::native::DatasetInfo::read(&info_path)?;
+    };
+    let info_path = input.join(data::native::DATASET_TOML);
     let coding = learn::checkpoint::ModelMeta::read(model)?.coding;
     if info.mount != coding.mount {
         bail!(

@@ -341,7 +341,11 @@ fn prepare_demo(dir: &Path) -> Result<(PathBuf, PathBuf, scene::ScenePlan)> {
         dir.display(),
         dir.display()
     ));
-    let args = crate::study::Scale::quick().demo(dir);
+    let args = demo::DemoConfig {
+        out: dir.to_path_buf(),
+        quick: true,
+        ..demo::DemoConfig::default()
+    };
     let prepared = demo::render_and_train(&args, &|t| crate::progress::note(t))?;
     Ok((
         prepared.model_dir.clone(),

@@ -238,11 +238,7 @@ fn info_of(ds: &PosedDataset) -> Result<DatasetInfo> {
 
 /// Degrees of freedom of the dataset at `root`: a native `dataset.toml`'s `dof`, else 6.
 pub fn dof(root: &Path) -> Result<u8> {
-    let native_toml = root.join(native::DATASET_TOML);
-    if native_toml.is_file() {
-        return Ok(DatasetInfo::read(&native_toml)?.dof);
-    }
-    Ok(6)
+    Ok(DatasetInfo::of(root)?.map_or(6, |info| info.dof))
 }
 
 /// Reads the train and validation frames of the dataset at `root` (any layout of [`open`]) and

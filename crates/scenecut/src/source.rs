@@ -84,7 +84,7 @@ impl Detection {
 /// dataset, else `input` itself.
 pub fn frames_path(input: &Path) -> PathBuf {
     let frames = input.join("frames");
-    if input.join("dataset.toml").is_file() && frames.is_dir() {
+    if input.join(data::native::DATASET_TOML).is_file() && frames.is_dir() {
         frames
     } else {
         input.to_path_buf()

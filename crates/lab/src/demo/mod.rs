@@ -10,6 +10,7 @@
 //! Every stage writes into `--out` and a second run reuses what is there, so an interrupted
 //! demo continues where it stopped.
 
+pub(crate) mod cuts;
 mod page;
 pub mod refine;
 pub(crate) mod scene;
@@ -528,7 +529,7 @@ pub fn run(args: &DemoConfig, sink: &mut dyn crate::Output) -> Result<()> {
         args.tta,
         setup.scene.train_mode()?,
     )?;
-    let cuts = crate::study::cuts::measure(
+    let cuts = crate::demo::cuts::measure(
         &setup.scene,
         &model_dir,
         &args.out.join("cut-walk"),

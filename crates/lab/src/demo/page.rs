@@ -31,7 +31,7 @@ pub struct PageInput<'a> {
     /// How training went.
     pub summary: &'a TrainSummary,
     /// The walk with scene cuts through the temporal filter.
-    pub cuts: &'a crate::study::cuts::CutFigures,
+    pub cuts: &'a crate::demo::cuts::CutFigures,
     /// The trained model (for the Grad-CAM maps).
     pub model_dir: &'a Path,
     /// The test walk refined against the keyframe map, when it was.
@@ -226,7 +226,7 @@ pub fn write(dir: &Path, input: &PageInput) -> Result<PathBuf> {
         "Grad-CAM maps of the position estimate over six test frames spread along the walk:          bright where the features that move the estimate away from the centre of the training          poses are (`indoorloc explain` draws them for any frames).",
     );
 
-    crate::study::cuts::section(&mut page, input.cuts)?;
+    crate::demo::cuts::section(&mut page, input.cuts)?;
 
     page.section("Training");
     let mut t = report::Table::new(
