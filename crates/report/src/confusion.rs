@@ -2,8 +2,8 @@
 //! each cell shaded by the fraction of its row (so small classes read as clearly as large
 //! ones) with its count written in it, and the row's recall at the end.
 
+use crate::chart::encode_png;
 use crate::error::{ReportError, Result};
-use crate::figure::encode_png;
 use crate::font::{FONT, ensure_font};
 use plotters::prelude::*;
 use std::path::Path;

@@ -1,11 +1,20 @@
 //! Error maps: where along a walk the estimates went wrong, as a top-down view of the ground
-//! truth with every estimate coloured by its position error.
+//! truth with every estimate coloured by its position error. The figure's description, its view
+//! and equal-aspect height, its checks and thinning into an [`ErrorMapPlot`], and its drawing
+//! (with the colour bar).
 
+use crate::chart::{
+    AXIS, AXIS_DESC_PX, DrawResult, FLOOR_EDGE, FLOOR_FILL, Glyph, LINK, PATH, TEXT, TICK_PX,
+    TOP_DOWN_CHROME, equal_aspect_height, fmt_sig, left_out, legend_strip, map_chart, padded, tick,
+    titled, trajectory_view,
+};
 use crate::decimate::{
     MAX_LINKS, MAX_TRACK_POINTS, clip_polyline, quantile_range, stride_indices, track_segments,
 };
 use crate::error::{ReportError, Result};
-use crate::figure::{Figure, fmt_sig, left_out, padded, trajectory_view};
+use crate::font::FONT;
+use plotters::coord::Shift;
+use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Top-down (x, y) map of one estimated trajectory: the ground truth as a thin grey line, each
@@ -43,24 +52,6 @@ pub struct ErrorMap {
     pub floor_plan: Vec<[f64; 4]>,
 }
 
-/// Map of `estimates` coloured by `errors_m` over the `ground_truth` path, with the colour scale
-/// ending at the 95th percentile, no links and no floor plan (set the fields of [`ErrorMap`] for
-/// those).
-pub fn error_map(
-    title: &str,
-    ground_truth: &[[f64; 2]],
-    estimates: &[[f64; 2]],
-    errors_m: &[f64],
-) -> Figure {
-    Figure::ErrorMap(ErrorMap {
-        title: title.into(),
-        ground_truth: ground_truth.to_vec(),
-        estimates: estimates.to_vec(),
-        errors_m: errors_m.to_vec(),
-        ..ErrorMap::default()
-    })
-}
-
 /// An error map's data after checks, clipping to the view and decimation.
 pub(crate) struct ErrorMapPlot {
     pub(crate) title: String,
@@ -83,7 +74,7 @@ pub(crate) struct ErrorMapPlot {
 }
 
 /// The region an error map shows before padding (`None` without a finite point).
-pub(crate) fn error_map_view(f: &ErrorMap) -> Option<[f64; 4]> {
+fn error_map_view(f: &ErrorMap) -> Option<[f64; 4]> {
     trajectory_view(&f.ground_truth, [f.estimates.as_slice()])
 }
 
@@ -206,136 +197,113 @@ pub(crate) fn prepare_error_map(f: &ErrorMap) -> Result<ErrorMapPlot> {
     })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::font::SVG_FONT_STACK;
+/// Width of an error map's colour bar strip (bar, ticks and axis title), pixels.
+const COLOR_BAR_W: i32 = 120;
 
-    type TestResult = std::result::Result<(), Box<dyn std::error::Error>>;
+/// Height of an error map: as a top-down figure's, with the colour bar taking width from the
+/// map.
+pub(crate) fn error_map_height(f: &ErrorMap) -> u32 {
+    let chrome = (
+        TOP_DOWN_CHROME.0 + f64::from(COLOR_BAR_W),
+        TOP_DOWN_CHROME.1,
+    );
+    equal_aspect_height(error_map_view(f), chrome)
+}
 
-    /// A loop walk with estimates off by a growing amount, and its errors.
-    fn walk(n: usize) -> (Vec<[f64; 2]>, Vec<[f64; 2]>, Vec<f64>) {
-        let gt: Vec<[f64; 2]> = (0..n)
-            .map(|i| {
-                let t = i as f64 / n as f64 * std::f64::consts::TAU;
-                [12.0 * t.cos(), 5.0 * t.sin()]
-            })
-            .collect();
-        let off: Vec<f64> = (0..n).map(|i| 0.05 + (i % 97) as f64 * 0.01).collect();
-        let est = gt.iter().zip(&off).map(|(p, d)| [p[0] + d, p[1]]).collect();
-        (gt, est, off)
+/// The colour of an error on the error map's scale, which ends at `max`.
+fn error_color(e: f64, max: f64) -> RGBColor {
+    ViridisRGB::get_color_normalized(e.clamp(0.0, max), 0.0, max)
+}
+
+pub(crate) fn draw_error_map<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    p: &ErrorMapPlot,
+) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    let area = titled(root, &p.title)?;
+    let mut entries = vec![
+        ("ground truth".to_string(), Glyph::Line(PATH.to_rgba(), 2)),
+        (p.dots_label.clone(), Glyph::Circle(error_color(0.6, 1.0))),
+    ];
+    if !p.links.is_empty() {
+        let label = "error (ground truth → estimate)";
+        entries.push((label.into(), Glyph::Line(LINK.mix(0.6), 2)));
     }
-
-    fn full_map() -> ErrorMap {
-        let (ground_truth, estimates, errors_m) = walk(500);
-        ErrorMap {
-            title: "Held-out walk".into(),
-            ground_truth,
-            estimates,
-            errors_m,
-            links: true,
-            floor_plan: vec![[-14.0, -6.0, 0.0, 6.0], [0.0, -6.0, 14.0, 6.0]],
-            color_max_m: None,
-        }
+    if !p.rooms.is_empty() {
+        entries.push(("floor plan".into(), Glyph::Band(FLOOR_EDGE.to_rgba())));
     }
+    let area = legend_strip(&area, &entries)?;
+    let (w, _) = area.dim_in_pixel();
+    let (map_area, bar_area) = area.split_horizontally(w as i32 - COLOR_BAR_W);
+    let mut chart = map_chart(&map_area, p.bounds, p.outside)?;
 
-    #[test]
-    fn png_and_svg_are_drawn_at_the_figure_size() -> TestResult {
-        let fig = Figure::from(full_map());
-        let dir = tempfile::tempdir()?;
-        let (svg, png, _) = fig.save_both(dir.path(), "map")?;
-        let img = image::open(&png)?;
-        assert_eq!((img.width(), img.height()), fig.size());
-        assert!(svg.starts_with("<svg") && svg.contains(SVG_FONT_STACK));
-        assert!(svg.contains("Held-out walk") && svg.contains("ground truth"));
-        // the colour bar and its scale
-        assert!(svg.contains("position error (m)"));
-        assert!(svg.contains("scale ends at the 95th percentile"));
-        assert!(svg.contains("floor plan") && svg.contains("ground truth → estimate"));
-        Ok(())
+    chart.draw_series(
+        p.rooms
+            .iter()
+            .map(|r| Rectangle::new([(r[0], r[2]), (r[1], r[3])], FLOOR_FILL.filled())),
+    )?;
+    chart.draw_series(
+        p.walls
+            .iter()
+            .map(|w| PathElement::new(w.clone(), FLOOR_EDGE.stroke_width(1))),
+    )?;
+    chart.draw_series(
+        p.links
+            .iter()
+            .map(|l| PathElement::new(l.to_vec(), LINK.mix(0.35).stroke_width(1))),
+    )?;
+    for seg in &p.ground_truth {
+        chart.draw_series(LineSeries::new(seg.iter().copied(), PATH.stroke_width(1)))?;
     }
+    // a darker rim keeps the light end of the scale visible on white
+    let radius = if p.dots.len() > 1500 { 2 } else { 3 };
+    chart.draw_series(p.dots.iter().map(|&(at, e)| {
+        let c = error_color(e, p.color_max);
+        let rim = RGBColor(
+            (f64::from(c.0) * 0.7) as u8,
+            (f64::from(c.1) * 0.7) as u8,
+            (f64::from(c.2) * 0.7) as u8,
+        );
+        EmptyElement::at(at)
+            + Circle::new((0, 0), radius, rim.filled())
+            + Circle::new((0, 0), radius - 1, c.filled())
+    }))?;
+    draw_color_bar(&bar_area, p.color_max)
+}
 
-    #[test]
-    fn colour_scale_is_clipped_at_the_95th_percentile_or_as_asked() -> TestResult {
-        let mut f = full_map();
-        let plot = prepare_error_map(&f)?;
-        let (p95, _) = quantile_range(f.errors_m.iter().copied(), 0.95, 1.0).unwrap_or_default();
-        assert_eq!(plot.color_max, p95);
-        // dots run from the smallest to the largest error, worst drawn last
-        assert!(plot.dots.windows(2).all(|w| w[0].1 <= w[1].1));
-        f.color_max_m = Some(10.0);
-        let plot = prepare_error_map(&f)?;
-        assert_eq!(plot.color_max, 10.0);
-        assert!(!plot.dots_label.contains("scale ends"));
-        f.color_max_m = Some(0.0);
-        assert!(matches!(
-            prepare_error_map(&f),
-            Err(ReportError::BadInput(_))
-        ));
-        Ok(())
-    }
-
-    #[test]
-    fn floor_plan_is_clipped_to_the_view_not_widening_it() -> TestResult {
-        let mut f = full_map();
-        let view = prepare_error_map(&f)?.bounds;
-        f.floor_plan = vec![[-500.0, -500.0, 500.0, 500.0], [900.0, 900.0, 901.0, 901.0]];
-        let plot = prepare_error_map(&f)?;
-        assert_eq!(plot.bounds, view);
-        assert_eq!(plot.rooms, vec![view]);
-        assert!(plot.walls.is_empty());
-        Ok(())
-    }
-
-    #[test]
-    fn long_walks_are_decimated() -> TestResult {
-        let (gt, est, err) = walk(100_000);
-        let fig = error_map("long", &gt, &est, &err);
-        let Figure::ErrorMap(f) = &fig else {
-            return Err("not an error map".into());
-        };
-        let plot = prepare_error_map(f)?;
-        assert!(plot.dots.len() <= MAX_TRACK_POINTS + 1);
-        fig.to_png()?;
-        Ok(())
-    }
-
-    #[test]
-    fn non_finite_frames_are_left_out() -> TestResult {
-        let (gt, mut est, mut err) = walk(50);
-        est[3] = [f64::NAN, 0.0];
-        err[7] = f64::INFINITY;
-        let fig = error_map("t", &gt, &est, &err);
-        assert!(fig.to_svg()?.contains("2 non-finite left out"));
-        fig.to_png()?;
-        Ok(())
-    }
-
-    #[test]
-    fn bad_input_is_an_error() {
-        let (gt, est, err) = walk(10);
-        let bad = [
-            error_map("t", &[], &[], &[]),
-            error_map("t", &gt, &est, &err[1..]),
-            error_map("t", &gt[1..], &est, &err),
-            error_map("t", &gt, &est, &[f64::NAN; 10]),
-            error_map(
-                "t",
-                &[[0.0, 0.0], [f64::MAX, -f64::MAX]],
-                &[[0.0; 2]; 2],
-                &[1.0; 2],
-            ),
-        ];
-        for fig in bad {
-            crate::figure::assert_rejected(&fig);
-        }
-    }
-
-    #[test]
-    fn single_frames_and_zero_errors_draw() -> TestResult {
-        error_map("t", &[[1.0, 1.0]], &[[1.0, 1.0]], &[0.0]).to_png()?;
-        let (gt, _, _) = walk(20);
-        error_map("t", &gt, &gt, &[0.0; 20]).to_svg()?;
-        Ok(())
-    }
+/// A vertical colour bar from 0 to `max` metres, level with the map's plotting area.
+fn draw_color_bar<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, max: f64) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    const STEPS: usize = 128;
+    let mut chart = ChartBuilder::on(area)
+        .margin(10)
+        .margin_left(6)
+        .x_label_area_size(48)
+        .right_y_label_area_size(74)
+        .build_cartesian_2d(0.0..1.0, 0.0..max)?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .axis_style(AXIS)
+        .y_desc("position error (m)")
+        .axis_desc_style((FONT, AXIS_DESC_PX).into_font().color(&TEXT))
+        .label_style((FONT, TICK_PX).into_font().color(&TEXT))
+        .y_labels(7)
+        .y_label_formatter(&|v: &f64| tick(*v, max))
+        .draw()?;
+    chart.draw_series((0..STEPS).map(|i| {
+        let (lo, hi) = (i as f64 / STEPS as f64, (i + 1) as f64 / STEPS as f64);
+        let c = error_color((lo + hi) / 2.0 * max, max);
+        Rectangle::new([(0.0, lo * max), (1.0, hi * max)], c.filled())
+    }))?;
+    chart.draw_series(std::iter::once(Rectangle::new(
+        [(0.0, 0.0), (1.0, max)],
+        AXIS.stroke_width(1),
+    )))?;
+    Ok(())
 }

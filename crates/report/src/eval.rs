@@ -1,9 +1,14 @@
 //! The report of `indoorloc eval`: summary table, figures and one HTML page.
 
+use crate::cdf::ErrorCdf;
+use crate::chart::fmt_sig;
 use crate::error::{ReportError, Result};
-use crate::figure::{ErrorCdf, ErrorOverTime, Figure, Series, TopDown, Track, fmt_sig};
+use crate::figure::Figure;
 use crate::html::HtmlReport;
+use crate::over_time::ErrorOverTime;
+use crate::series::{Series, Track};
 use crate::table::Table;
+use crate::top_down::TopDown;
 use geom::metrics::{PoseEvaluation, Smoothness};
 use std::path::{Path, PathBuf};
 

@@ -305,7 +305,8 @@ footer { color: var(--muted); font-size: .85rem; text-align: center; margin-top:
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::figure::{Series, error_cdf};
+    use crate::figure::error_cdf;
+    use crate::series::Series;
 
     #[test]
     fn base64_matches_rfc4648_vectors() {

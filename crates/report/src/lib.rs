@@ -48,9 +48,19 @@
 //! ```
 #![deny(missing_docs)]
 
+// Layers, top to bottom; each module imports only from modules listed below it, so no two
+// modules import each other, directly or round a circle:
+// - `eval` (the evaluation report), then `html` (the report builder);
+// - `figure`: the `Figure` enum over every kind, the functions that make one, and rendering;
+// - one module per figure kind, each with its description, preparation and drawing: `cdf`,
+//   `over_time`, `top_down`, `errmap`, `scatter`, `reliability`; and the pictures `confusion`,
+//   `rhythm`, `sheet`, `saliency`;
+// - `chart` (the plot style and the drawing helpers the kinds share), `series`, `decimate`,
+//   `table`, `font`, `io`, `error`.
+mod cdf;
+mod chart;
 mod confusion;
 mod decimate;
-mod draw;
 mod errmap;
 mod error;
 mod eval;
@@ -58,29 +68,35 @@ mod figure;
 mod font;
 mod html;
 mod io;
+mod over_time;
 mod reliability;
 mod rhythm;
 mod saliency;
 mod scatter;
+mod series;
 mod sheet;
 mod table;
+mod top_down;
 
+pub use cdf::ErrorCdf;
 pub use confusion::confusion_png;
-pub use errmap::{ErrorMap, error_map};
+pub use errmap::ErrorMap;
 pub use error::{ReportError, Result};
 pub use eval::{pose_eval_report, pose_summary_table};
 pub use figure::{
-    ErrorCdf, ErrorOverTime, Figure, Series, TopDown, Track, error_cdf, error_over_time,
-    trajectory_top_down,
+    Figure, error_cdf, error_map, error_over_time, reliability, scatter, trajectory_top_down,
 };
 pub use html::HtmlReport;
 pub use io::write_atomic;
-pub use reliability::{Reliability, ReliabilityCurve, reliability};
+pub use over_time::ErrorOverTime;
+pub use reliability::{Reliability, ReliabilityCurve};
 pub use rhythm::{RhythmPlot, rhythm_png};
 pub use saliency::saliency_overlay;
-pub use scatter::{Scatter, scatter};
+pub use scatter::Scatter;
+pub use series::{Series, Track};
 pub use sheet::{Tile, contact_sheet};
 pub use table::Table;
+pub use top_down::TopDown;
 
 #[doc(no_inline)]
 pub use geom::metrics::PoseEvaluation;

@@ -2,8 +2,8 @@
 //! series with the detector's threshold beneath it on the same frame axis, detected cuts as
 //! red lines through both, gradual transitions shaded, gold cuts (when known) as green ticks.
 
+use crate::chart::encode_png;
 use crate::error::{ReportError, Result};
-use crate::figure::encode_png;
 use crate::font::{FONT, ensure_font};
 use plotters::prelude::*;
 use std::path::Path;

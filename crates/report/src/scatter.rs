@@ -1,9 +1,14 @@
 //! Scatter plots of one quantity against another, with their correlation: e.g. the uncertainty a
-//! network predicts against the error it actually makes.
+//! network predicts against the error it actually makes. The figure's description, its checks and
+//! thinning into a [`ScatterPlot`], and its drawing.
 
+use crate::chart::{
+    DrawResult, Glyph, PALETTE, draw_mesh, fmt_sig, left_out, legend_strip, titled,
+};
 use crate::decimate::{MAX_SCATTER_POINTS, clip_polyline, quantile_range, stride_indices};
 use crate::error::{ReportError, Result};
-use crate::figure::{Figure, fmt_sig, left_out};
+use plotters::coord::Shift;
+use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Points `[x, y]` with their Pearson correlation in the legend and, optionally, the
@@ -26,17 +31,6 @@ pub struct Scatter {
     pub points: Vec<[f64; 2]>,
     /// Draw the least-squares line through the points.
     pub fit_line: bool,
-}
-
-/// Scatter plot of `points` with the least-squares line, axes titled `x_label` and `y_label`.
-pub fn scatter(title: &str, x_label: &str, y_label: &str, points: &[[f64; 2]]) -> Figure {
-    Figure::Scatter(Scatter {
-        title: title.into(),
-        x_label: x_label.into(),
-        y_label: y_label.into(),
-        points: points.to_vec(),
-        fit_line: true,
-    })
 }
 
 /// A scatter plot's data after checks and decimation.
@@ -161,119 +155,46 @@ pub(crate) fn prepare_scatter(f: &Scatter) -> Result<ScatterPlot> {
     })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::font::SVG_FONT_STACK;
-
-    type TestResult = std::result::Result<(), Box<dyn std::error::Error>>;
-
-    /// Errors that grow with the predicted sigma, with deterministic scatter.
-    fn sigma_vs_error(n: usize) -> Vec<[f64; 2]> {
-        (0..n)
-            .map(|i| {
-                let s = 0.1 + (i % 50) as f64 * 0.02;
-                let u = (i as f64 * 0.618_034) % 1.0;
-                [s, s * (0.5 + u)]
-            })
-            .collect()
+pub(crate) fn draw_scatter<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    p: &ScatterPlot,
+) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    let area = titled(root, &p.title)?;
+    let dot = PALETTE[0];
+    let fit = PALETTE[3];
+    let mut entries = vec![(p.points_label.clone(), Glyph::Circle(dot))];
+    if let Some(label) = &p.fit_label {
+        entries.push((label.clone(), Glyph::Line(fit.to_rgba(), 2)));
     }
-
-    #[test]
-    fn png_and_svg_are_drawn_at_the_figure_size() -> TestResult {
-        let fig = scatter(
-            "Uncertainty",
-            "predicted sigma (m)",
-            "position error (m)",
-            &sigma_vs_error(800),
-        );
-        let dir = tempfile::tempdir()?;
-        let (svg, png, _) = fig.save_both(dir.path(), "scatter")?;
-        let img = image::open(&png)?;
-        assert_eq!((img.width(), img.height()), fig.size());
-        assert!(svg.starts_with("<svg") && svg.contains(SVG_FONT_STACK));
-        assert!(svg.contains("Uncertainty") && svg.contains("predicted sigma (m)"));
-        assert!(svg.contains("position error (m)") && svg.contains("least squares: y = "));
-        assert!(svg.contains("800 points, Pearson r = 0."));
-        Ok(())
+    let area = legend_strip(&area, &entries)?;
+    let ((x0, x1), (y0, y1)) = (p.x_range, p.y_range);
+    let mut chart = ChartBuilder::on(&area)
+        .margin(8)
+        .margin_right(24)
+        .x_label_area_size(48)
+        .y_label_area_size(68)
+        .build_cartesian_2d(x0..x1, y0..y1)?;
+    let descs = (p.x_desc.as_str(), p.y_desc.as_str());
+    draw_mesh(&mut chart, descs, (9, 7), (x1 - x0, y1 - y0))?;
+    // translucent, so dense parts of the cloud read darker
+    let (radius, alpha) = if p.points.len() > 1500 {
+        (2, 0.35)
+    } else {
+        (3, 0.55)
+    };
+    chart.draw_series(
+        p.points
+            .iter()
+            .map(|&at| Circle::new(at, radius, dot.mix(alpha).filled())),
+    )?;
+    if let Some(line) = p.fit_segment {
+        chart.draw_series(std::iter::once(PathElement::new(
+            line.to_vec(),
+            fit.stroke_width(2),
+        )))?;
     }
-
-    #[test]
-    fn correlation_and_line_use_every_point() -> TestResult {
-        let pts: Vec<[f64; 2]> = (0..20_000)
-            .map(|i| [f64::from(i), 2.0 * f64::from(i) + 1.0])
-            .collect();
-        let fig = Scatter {
-            points: pts,
-            fit_line: true,
-            ..Scatter::default()
-        };
-        let plot = prepare_scatter(&fig)?;
-        assert!(plot.points.len() <= MAX_SCATTER_POINTS + 1);
-        assert!(
-            plot.points_label
-                .starts_with("20000 points, Pearson r = 1.00, ")
-        );
-        assert_eq!(
-            plot.fit_label.as_deref(),
-            Some("least squares: y = 2 x + 1")
-        );
-        assert!(plot.fit_segment.is_some());
-        let no_line = prepare_scatter(&Scatter {
-            fit_line: false,
-            ..fig
-        })?;
-        assert!(no_line.fit_label.is_none() && no_line.fit_segment.is_none());
-        Ok(())
-    }
-
-    #[test]
-    fn outliers_cut_the_axis_and_are_counted() -> TestResult {
-        let mut pts = sigma_vs_error(1000);
-        pts[10] = [0.5, 1000.0];
-        let plot = prepare_scatter(&Scatter {
-            points: pts,
-            ..Scatter::default()
-        })?;
-        assert!(plot.y_range.1 < 10.0);
-        assert!(plot.points_label.contains("1 beyond the axes"));
-        Ok(())
-    }
-
-    #[test]
-    fn non_finite_points_are_left_out() -> TestResult {
-        let mut pts = sigma_vs_error(30);
-        pts[2] = [f64::NAN, 1.0];
-        pts[5] = [0.3, f64::INFINITY];
-        let fig = scatter("t", "x", "y", &pts);
-        let svg = fig.to_svg()?;
-        assert!(svg.contains("28 points") && svg.contains("2 non-finite left out"));
-        fig.to_png()?;
-        Ok(())
-    }
-
-    #[test]
-    fn bad_input_is_an_error() {
-        let bad = [
-            scatter("t", "x", "y", &[]),
-            scatter("t", "x", "y", &[[f64::NAN, 1.0]]),
-            scatter("t", "x", "y", &[[0.0, 0.0], [f64::MAX, 1.0]]),
-        ];
-        for fig in bad {
-            crate::figure::assert_rejected(&fig);
-        }
-    }
-
-    #[test]
-    fn single_and_constant_points_draw_without_a_line() -> TestResult {
-        let one = scatter("t", "x", "y", &[[1.0, 2.0]]);
-        assert!(one.to_svg()?.contains("1 point, Pearson r undefined"));
-        let Figure::Scatter(same_x) = scatter("t", "x", "y", &[[1.0, 2.0], [1.0, 3.0]]) else {
-            return Err("not a scatter plot".into());
-        };
-        assert!(prepare_scatter(&same_x)?.fit_label.is_none());
-        Figure::from(same_x).to_png()?;
-        scatter("t", "x", "y", &[[-1.0, -2.0], [0.0, 0.0]]).to_png()?;
-        Ok(())
-    }
+    Ok(())
 }

@@ -1,8 +1,8 @@
 //! Contact sheets: a grid of labelled images in one PNG (render modes × appearance variants, or
 //! any other set of pictures a person wants to compare side by side).
 
+use crate::chart::encode_png;
 use crate::error::{ReportError, Result};
-use crate::figure::encode_png;
 use crate::font::{FONT, ensure_font};
 use plotters::prelude::*;
 use std::path::Path;
