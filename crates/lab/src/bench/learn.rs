@@ -3,7 +3,7 @@
 //! thread and all threads), beside PyTorch running `torch_apr.py --arch small` with the same
 //! settings in the same run.
 
-use super::{Peer, VsPeer};
+use super::peer::{Peer, VsPeer};
 use crate::{Context, Result};
 use learn::Arch;
 use learn::bench::{infer_ms, train_step_ms};

@@ -3,7 +3,7 @@
 //! `ArucoDetector` with default parameters (`aruco.py`, one thread) in the same run; with the
 //! markers found by each against the gold where there is gold.
 
-use super::{Peer, VsPeer};
+use super::peer::{Peer, VsPeer};
 use crate::{Context, Result, bail};
 use markers::{DetectParams, Dictionary};
 use serde::Serialize;
@@ -43,7 +43,7 @@ pub struct MarkerFigures {
 
 /// Runs the benchmark where the shared photos are.
 pub fn bench(peer: Result<Peer>) -> Result<Vec<MarkerFigures>> {
-    let dir = super::shared_data("data/aruco_real", "gold.json", Path::is_file)
+    let dir = super::peer::shared_data("data/aruco_real", "gold.json", Path::is_file)
         .context("../shared/data/aruco_real not found beside the checkout")?;
     let dict = Dictionary::predefined("6x6_250")?;
     let params = DetectParams::default();

@@ -9,7 +9,7 @@
 //! Both sides time the view alone (no decoding, no writing), take the median of many runs, and
 //! run OpenCV with one thread.
 
-use super::{Peer, VsPeer};
+use super::peer::{Peer, VsPeer};
 use crate::{Context, Result, bail};
 use imgproc::view::{Scratch, ViewSpec, gray_clahe_view_into};
 use serde::Serialize;

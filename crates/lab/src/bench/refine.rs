@@ -5,7 +5,7 @@
 //! same frames with the depth images ignored (features triangulated between keyframes) shows
 //! what photos alone give.
 
-use super::{Peer, VsPeer};
+use super::peer::{Peer, VsPeer};
 use crate::{Context, Result, bail};
 use data::blocks::BlockSplit;
 use data::native::SplitName;
@@ -66,7 +66,7 @@ pub fn bench(
 ) -> Result<Vec<RefineFigures>> {
     let data = match data {
         Some(d) => d.to_path_buf(),
-        None => super::shared_data("data/7scenes_redkitchen_seq01", "seq-01", Path::is_dir).context(
+        None => super::peer::shared_data("data/7scenes_redkitchen_seq01", "seq-01", Path::is_dir).context(
             "../shared/data/7scenes_redkitchen_seq01 not found beside the checkout (pass --refine-data)",
         )?,
     };

@@ -10,7 +10,7 @@
 //! filter on), so that neither a second core nor a cheaper decode is taken for a faster
 //! detector.
 
-use super::{Peer, VsPeer};
+use super::peer::{Peer, VsPeer};
 use crate::{Context, Result, bail};
 use scenecut::{Collect, Config, Decoding, Gold, score_hard};
 use serde::Serialize;

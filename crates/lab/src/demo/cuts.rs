@@ -2,8 +2,9 @@
 //! held-out walk joined by hard cuts, localized, cuts detected by `scenecut`, and the temporal
 //! filter (and a sequence model, when the folder has one) run with cuts not handled, reset at
 //! the gold cuts and reset at the detected ones.
+use super::evaluate::{self, FrameResult};
+use super::scene;
 use crate::Result;
-use crate::demo::{self, FrameResult, scene};
 use crate::progress::bar;
 use data::native::NativeDataset;
 use geom::Pose;
@@ -14,7 +15,6 @@ use report::{HtmlReport, Series, Table};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use track::{FilterConfig, Measurement, PoseFilter};
-
 
 /// One row of the table.
 #[derive(Debug, Serialize)]
@@ -85,7 +85,7 @@ pub(crate) fn measure(
     })?;
     pb.finish_and_clear();
     let ds = NativeDataset::open(dir)?;
-    let results = demo::localize_test(&ds, model_dir, mc, true, plan.train_mode()?)?;
+    let results = evaluate::localize_test(&ds, model_dir, mc, true, plan.train_mode()?)?;
     let detection = scenecut::detect_input(
         dir,
         &scenecut::Config::default(),
@@ -125,7 +125,7 @@ pub(crate) fn measure(
     if SeqMeta::exists(model_dir) {
         let seq = SeqLocalizer::load(model_dir)?;
         let index: Vec<usize> = results.iter().map(|r| r.index).collect();
-        let views = demo::views_of(&ds, &index, seq.base(), plan.train_mode()?)?;
+        let views = evaluate::views_of(&ds, &index, seq.base(), plan.train_mode()?)?;
         let keys: Vec<(&str, u64)> = index
             .iter()
             .map(|&i| (ds.trajectory.frames[i].seq.as_str(), i as u64))
@@ -138,7 +138,7 @@ pub(crate) fn measure(
         ] {
             let runs = learn::window::runs(&keys, resets);
             let estimates = seq.predict_runs(&views, &runs, mc)?;
-            let errs: Vec<(f64, f64)> = demo::frame_results(&ds, &index, estimates, task)
+            let errs: Vec<(f64, f64)> = evaluate::frame_results(&ds, &index, estimates, task)
                 .iter()
                 .map(|r| (r.pos_err_m, r.rot_err_deg))
                 .collect();
@@ -169,7 +169,6 @@ pub(crate) fn measure(
     })
 }
 
-
 /// Whether `frame` is a cut frame or at most `window` frames after one.
 fn after_cut(frame: u64, cuts: &[u64], window: u64) -> bool {
     cuts.iter().any(|&c| frame >= c && frame <= c + window)
@@ -184,7 +183,7 @@ struct Errors<'a> {
 impl Errors<'_> {
     /// Errors of `pose` against frame `r`'s ground truth, as the demo measures them.
     fn of(&self, r: &FrameResult, pose: &Pose) -> (f64, f64) {
-        demo::pose_errors(&r.truth, pose, self.pose3, self.ds.info.mount)
+        evaluate::pose_errors(&r.truth, pose, self.pose3, self.ds.info.mount)
     }
 }
 

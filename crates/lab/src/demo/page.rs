@@ -1,8 +1,8 @@
 //! The demo's report: one self-contained HTML page (`report.html`) plus the figures as PNG and
 //! SVG beside it, so a person sees at a glance how well the network localizes the test walk.
 
+use super::evaluate::{Evaluation, FrameResult, UncertaintyFigures};
 use super::scene::{self, ScenePlan};
-use super::{Evaluation, FrameResult, UncertaintyFigures};
 use crate::{Context, Result};
 use data::native::NativeDataset;
 use learn::TrainSummary;

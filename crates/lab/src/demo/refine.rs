@@ -3,7 +3,7 @@
 //! rendered at 640x480) refined against it from the network's estimate of its 160x120 frame,
 //! the network's sigma gating the refinement (`map::refine`).
 
-use super::FrameResult;
+use super::evaluate::FrameResult;
 use super::scene::{self, ScenePlan};
 use crate::progress::bar;
 use crate::{Context, Result, bail};

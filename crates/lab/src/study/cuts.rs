@@ -15,9 +15,11 @@
 //!    LSTM runs the walk the same three ways: its state never reset, reset at the gold cuts,
 //!    reset at the detected cuts ("starts" counts the runs).
 
-
 use crate::Result;
-use crate::demo::{self, cuts::{StudyOutput, measure, section, text}};
+use crate::demo::{
+    self,
+    cuts::{StudyOutput, measure, section, text},
+};
 use crate::output::{print_json, print_text};
 use clap::Args;
 use report::HtmlReport;
@@ -30,7 +32,7 @@ pub struct CutsConfig {
     #[arg(long, value_name = "DIR", default_value = "indoorloc-study-cuts")]
     out: PathBuf,
     #[command(flatten)]
-    scale: super::Scale,
+    scale: super::common::Scale,
     /// Walk segments joined by cuts in the test walk (default: 8 with --quick, else 16; at
     /// least 2).
     #[arg(long)]

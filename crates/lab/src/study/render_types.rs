@@ -12,7 +12,7 @@
 //! steps (8000 frames for 4 epochs, views not jittered), so that the four trainings stay within
 //! 15 minutes on two cores.
 
-use super::ErrorColumns;
+use super::common::ErrorColumns;
 use crate::demo::{self, DemoConfig, Evaluation, FrameResult};
 use crate::output::{print_json, print_text};
 use crate::{Result, ensure};
@@ -42,7 +42,7 @@ pub struct RenderTypesConfig {
     )]
     out: PathBuf,
     #[command(flatten)]
-    scale: super::Scale,
+    scale: super::common::Scale,
     /// Render modes to train on (default: shaded, textured, edges, gradmag).
     #[arg(long, value_delimiter = ',', value_parser = MODES)]
     modes: Vec<String>,

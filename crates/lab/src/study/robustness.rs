@@ -15,7 +15,7 @@
 //! its own normal-condition median. With `--quick` each model trains on 6000 frames for 8
 //! epochs, so that the three trainings and the tests stay within 15 minutes on two cores.
 
-use super::ErrorColumns;
+use super::common::ErrorColumns;
 use crate::demo::{self, DemoConfig, Evaluation, FrameResult};
 use crate::output::{print_json, print_text};
 use crate::{Result, ensure};
@@ -68,7 +68,7 @@ pub struct RobustnessConfig {
     #[arg(long, value_name = "DIR", default_value = "indoorloc-study-robustness")]
     out: PathBuf,
     #[command(flatten)]
-    scale: super::Scale,
+    scale: super::common::Scale,
     /// The models to train and compare, comma-separated (default: all three).
     #[arg(long, value_delimiter = ',', value_name = "MODELS",
           value_parser = ["baseline", "shape", "shape+planes"])]

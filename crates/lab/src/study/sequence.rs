@@ -31,7 +31,7 @@ pub struct SequenceConfig {
     #[arg(long, value_name = "DIR", default_value = "indoorloc-study-sequence")]
     out: PathBuf,
     #[command(flatten)]
-    scale: super::Scale,
+    scale: super::common::Scale,
     /// Frames per training window of the sequence model.
     #[arg(long, default_value_t = 20)]
     window: usize,

@@ -26,7 +26,7 @@ pub struct TrackConfig {
     #[arg(long, value_name = "DIR", default_value = "indoorloc-study-track")]
     out: PathBuf,
     #[command(flatten)]
-    scale: super::Scale,
+    scale: super::common::Scale,
     /// Monte-Carlo-dropout passes of the second run.
     #[arg(long, default_value_t = 16)]
     mc: usize,

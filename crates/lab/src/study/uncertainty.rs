@@ -47,7 +47,7 @@ pub struct UncertaintyConfig {
     )]
     out: PathBuf,
     #[command(flatten)]
-    scale: super::Scale,
+    scale: super::common::Scale,
     /// A real posed dataset too (any layout `data` opens): the network trained with `study
     /// real`'s recipe on its training part, scored on its held-out frames.
     #[arg(long, value_name = "DATASET")]
