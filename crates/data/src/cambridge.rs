@@ -29,7 +29,7 @@
 //!
 //! # Conversion
 //! [`read`]: pose rotation (camera-to-world) = `q⁻¹`, translation = `(X, Y, Z)`.
-//! [`write`]: `q = rotation⁻¹`, stored on the `w ≥ 0` hemisphere, `(X, Y, Z)` = translation.
+//! [`write()`]: `q = rotation⁻¹`, stored on the `w ≥ 0` hemisphere, `(X, Y, Z)` = translation.
 //!
 //! # Frames
 //! The name is the image path as written (`seq1/frame00001.png`, matching between lists); `seq`
@@ -46,7 +46,7 @@ use geom::Pose;
 use nalgebra::Vector3;
 use std::path::Path;
 
-/// The three header lines [`write`] puts at the top of a list (the last one blank).
+/// The three header lines [`write()`] puts at the top of a list (the last one blank).
 pub const HEADER: [&str; 3] = [
     "Visual Landmark Dataset V1",
     "ImageFile, Camera Position [X Y Z W P Q R]",

@@ -29,7 +29,7 @@
 //! The camera is [`rgb_camera`]: the files store no intrinsics, and 640x480, f = 525,
 //! c = (320, 240) is the value customarily used for the RGB images.
 //!
-//! [`write`] writes `DIR/<seq>/<name>.pose.txt` for each frame: the name is kept when it starts
+//! [`write()`] writes `DIR/<seq>/<name>.pose.txt` for each frame: the name is kept when it starts
 //! with `frame-`, and is otherwise replaced with `frame-NNNNNN`, the frame's index (from 0) among
 //! the frames of its sequence in trajectory order. Time stamps and intrinsics are not stored.
 //! Numbers are printed in their shortest form that parses back to the same `f64`, so positions

@@ -18,7 +18,7 @@
 //! reprinted number) so that names match between files written by the same tool; `seq` is the
 //! file stem and `t` the timestamp. TUM files hold no intrinsics (`camera` is `None`).
 //!
-//! [`write`] writes the header comment `# timestamp tx ty tz qx qy qz qw`, then one line per
+//! [`write()`] writes the header comment `# timestamp tx ty tz qx qy qz qw`, then one line per
 //! frame. The timestamp is the frame's `t`; where the frame's name is the same number as its `t`
 //! (a frame read from a TUM file), the name's text is written instead so names survive a round
 //! trip. A frame without `t` gets its index in the trajectory (0, 1, 2, …) as timestamp. Numbers
@@ -34,7 +34,7 @@ use geom::Pose;
 use nalgebra::Vector3;
 use std::path::Path;
 
-/// The comment line [`write`] puts at the top of a file.
+/// The comment line [`write()`] puts at the top of a file.
 pub const HEADER: &str = "# timestamp tx ty tz qx qy qz qw";
 
 /// Reads a TUM trajectory file (see the module documentation for the format and conversion).

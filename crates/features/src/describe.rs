@@ -10,7 +10,7 @@ use std::sync::OnceLock;
 /// Bytes of a descriptor.
 pub const DESCRIPTOR_BYTES: usize = 32;
 
-/// A 256-bit binary descriptor, as four words (compared with [`Descriptor::distance`]).
+/// A 256-bit binary descriptor, as four words (compared by their Hamming distance).
 pub type Descriptor = [u64; 4];
 
 /// Pixels kept clear at each side of a level: the rotated pattern reaches 13·√2 < 19 pixels,

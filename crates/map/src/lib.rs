@@ -6,7 +6,7 @@
 //! - [`keyframes`]: keyframes every few centimetres of a posed dataset, their local features
 //!   ([`features`]) lifted to 3-D with the frame's depth ([`depth`]) or, for photos without
 //!   depth, triangulated between keyframes ([`triangulate`]);
-//! - [`file`]: the map on disk (versioned, checksummed, written atomically);
+//! - [`file`](mod@file): the map on disk (versioned, checksummed, written atomically);
 //! - [`pnp`]: P3P + RANSAC + Levenberg-Marquardt with a covariance;
 //! - [`refine`]: a query image's pose from the map, starting from a coarse pose or retrieval,
 //!   falling back to the coarse pose when the geometry does not hold.

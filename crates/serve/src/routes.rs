@@ -23,7 +23,7 @@ pub struct ServerConfig {
     /// A connection that has not sent a whole request head in this time is closed (slowloris).
     pub header_timeout: Duration,
     /// Origins besides the server's own whose pages may read the pose stream (`/ws`,
-    /// `/pose`), e.g. `https://robot.example`; see [`crate::origin`].
+    /// `/pose`), e.g. `https://robot.example`; see the `origin` module.
     pub allow_origins: Vec<String>,
 }
 

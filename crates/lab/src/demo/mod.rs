@@ -1,10 +1,10 @@
 //! `indoorloc demo`: the whole job on the built-in building, with nothing to download.
 //!
 //! 1. Renders one storey of the default building: training walks under several appearance
-//!    variants, a validation walk and a held-out test walk ([`scene`]).
+//!    variants, a validation walk and a held-out test walk (`scene`).
 //! 2. Trains the default network on it (resuming when a checkpoint of the same setup exists).
 //! 3. Localizes the test walk with Monte-Carlo-dropout uncertainty.
-//! 4. Evaluates and writes an HTML report ([`page`]): error table, CDFs, a top-down map coloured
+//! 4. Evaluates and writes an HTML report (`page`): error table, CDFs, a top-down map coloured
 //!    by error, uncertainty against error, and test frames beside renders from their estimates.
 //!
 //! Every stage writes into `--out` and a second run reuses what is there, so an interrupted

@@ -1,5 +1,5 @@
 //! The demo's centimetre stage: a keyframe map of the zone from survey walks rendered at
-//! 640x480 with depth ([`ScenePlan::for_map`]), and each held-out test frame (the same walk
+//! 640x480 with depth (`ScenePlan::for_map`), and each held-out test frame (the same walk
 //! rendered at 640x480) refined against it from the network's estimate of its 160x120 frame,
 //! the network's sigma gating the refinement (`map::refine`).
 

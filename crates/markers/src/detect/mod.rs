@@ -1,15 +1,15 @@
 //! ArUco marker detection, step for step OpenCV's `ArucoDetector::detectMarkers`
 //! (`objdetect/src/aruco/aruco_detector.cpp`) with its default parameters:
 //!
-//! 1. adaptive threshold (mean, C = 7) at window sizes 3, 13, 23 ([`threshold`]);
-//! 2. contours of each thresholded image ([`contours`]), polygon approximation at 3 % of the
+//! 1. adaptive threshold (mean, C = 7) at window sizes 3, 13, 23 (`threshold`);
+//! 2. contours of each thresholded image (`contours`), polygon approximation at 3 % of the
 //!    contour length, convex quadrilaterals only, perimeter between 3 % and 400 % of the larger
 //!    image side, corners at least 5 % of the perimeter apart; corners turned clockwise;
 //! 3. near-duplicate candidates (mean corner distance below 12.5 % of the perimeter) grouped,
 //!    the biggest of each group kept with its distinct smaller ones as fall-backs, groups too
 //!    near the image border dropped, nesting recorded;
 //! 4. each candidate sampled onto a grid of 4 pixels per cell, Otsu, border cells checked, the
-//!    inner bits identified in all 4 rotations ([`decode`]); inner candidates first, and once a
+//!    inner bits identified in all 4 rotations (`decode`); inner candidates first, and once a
 //!    candidate is a marker the ones around it are not tried;
 //! 5. corners rotated so the first is the marker's own top-left (TL, TR, BR, BL).
 //!
