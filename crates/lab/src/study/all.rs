@@ -44,6 +44,11 @@ pub struct AllConfig {
     /// Print one JSON document instead of a table.
     #[arg(long)]
     json: bool,
+    /// The `indoorloc` binary each study runs in, as its own process (default: this program,
+    /// which is that binary when run from the command line; a program that calls this library
+    /// names it).
+    #[arg(long, value_name = "FILE", hide = true)]
+    program: Option<PathBuf>,
 }
 
 /// A figure the docs record, and where to find it in a study's JSON.
@@ -125,7 +130,10 @@ pub fn run(args: &AllConfig, sink: &mut dyn crate::Output) -> Result<()> {
     let recorded = recorded()?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
-    let exe = std::env::current_exe().context("cannot find this program's own executable")?;
+    let exe = match &args.program {
+        Some(program) => program.clone(),
+        None => std::env::current_exe().context("cannot find this program's own executable")?,
+    };
     let start = Instant::now();
     let mut runs = Vec::new();
     let mut figures = Vec::new();
