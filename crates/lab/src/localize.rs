@@ -90,7 +90,7 @@ pub struct LocalizeConfig {
     tta: bool,
     /// Seed of the MC-dropout masks: every frame is seen through the same `--mc` thinned
     /// networks drawn from it, so a frame's sigma does not depend on the frames around it.
-    #[arg(long, default_value_t = learn::infer::DEFAULT_MC_SEED, value_name = "SEED")]
+    #[arg(long, default_value_t = learn::DEFAULT_MC_SEED, value_name = "SEED")]
     mc_seed: u64,
     /// Output format.
     #[arg(long, value_enum, default_value_t = OutFormat::Jsonl)]

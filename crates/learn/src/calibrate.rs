@@ -1,7 +1,7 @@
 //! Calibration of the uncertainty: after training, on the validation frames (which training
 //! did not learn from), two fits.
 //!
-//! 1. The weights of the three covariances `cov_pos_m2` adds ([`crate::infer::SigmaParts`]:
+//! 1. The weights of the three covariances `cov_pos_m2` adds ([`crate::SigmaParts`]:
 //!    MC spread, TTA spread, the per-image scale), so that the parts that track the error count
 //!    for more than those that do not. The fit maximises the Gaussian likelihood of the
 //!    validation errors (per frame `ln det Σ + eᵀ Σ⁻¹ e` on the position's axes, with
@@ -25,10 +25,10 @@ use geom::uncertainty::{Calibration, Standardised};
 use imgproc::view::View;
 
 use crate::Result;
-use crate::checkpoint::{SigmaWeights, UncertaintyCalibration};
 use crate::dataset::Samples;
 use crate::head::Task;
-use crate::infer::{Localizer, SigmaParts};
+use crate::infer::Localizer;
+use crate::sigma::{SigmaParts, SigmaWeights, UncertaintyCalibration};
 
 /// MC passes and TTA of the calibration: the defaults of `localize` and `demo`.
 pub const CALIBRATION_MC: usize = 16;
@@ -53,7 +53,7 @@ pub struct ValidationFrame {
 
 /// The weights and the calibration fitted for the model in `dir` on `val` (its validation
 /// samples, views as the model takes them); `None` when there are fewer than [`MIN_FRAMES`].
-pub fn calibrate(
+pub(crate) fn calibrate(
     dir: &Path,
     val: &Samples,
 ) -> Result<Option<(SigmaWeights, UncertaintyCalibration)>> {

@@ -21,14 +21,13 @@ use burn::optim::ModuleOptimizer;
 use burn::store::ModuleRecord;
 use burn::tensor::Bytes;
 use geom::uncertainty::Calibration;
-use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
+use crate::config::TrainConfig;
 use crate::hash::Fnv64;
 use crate::head::PoseCoding;
-use crate::infer::SigmaParts;
 use crate::net::{NetConfig, PoseNet};
-use crate::train::{EpochMetrics, TrainConfig};
+use crate::sigma::{SigmaWeights, UncertaintyCalibration};
 use crate::{LearnError, Result};
 
 /// File name of the checkpoint description.
@@ -46,7 +45,7 @@ pub const MAX_HIDDEN: usize = 16384;
 
 /// Refuses a view with a resize or crop side past [`MAX_INPUT_SIDE`] and a hidden layer past
 /// [`MAX_HIDDEN`], before anything is allocated for them.
-pub fn check_bounds(
+pub(crate) fn check_bounds(
     spec: &imgproc::view::ViewSpec,
     hidden: usize,
 ) -> std::result::Result<(), String> {
@@ -78,7 +77,7 @@ pub const FORMAT: u32 = 2;
 pub struct DatasetRef {
     /// `name` of its `dataset.toml`.
     pub name: String,
-    /// Content hash of the metadata and images used (see [`crate::dataset::TrainData::hash`]).
+    /// Content hash of the metadata and images used (see `dataset::TrainData::hash`).
     pub hash: String,
     /// Where it was read from.
     pub path: PathBuf,
@@ -146,67 +145,29 @@ pub struct ModelMeta {
     pub uncertainty: Option<UncertaintyCalibration>,
 }
 
-/// The calibration of a model's covariances ([`geom::uncertainty::Calibration`]): its scale
-/// multiplies the covariance that leaves the model, its radii give the regions.
+/// Metrics of one finished epoch.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct UncertaintyCalibration {
-    /// Of the position covariance (dims 3, or 2 for a floor position).
-    pub position: Calibration,
-    /// Of the rotation variance (dims 3, or 1 for a heading); `None` without MC passes, which
-    /// give the only rotation spread.
+pub struct EpochMetrics {
+    /// Epoch number, from 1.
+    pub epoch: usize,
+    /// Mean training loss.
+    pub train_loss: f64,
+    /// Mean training position error (metres, with dropout).
+    pub train_pos_m: f64,
+    /// Learning rate at the epoch's last step.
+    pub lr: f64,
+    /// Median validation position error, metres.
+    pub val_median_pos_m: f64,
+    /// Median validation rotation error, degrees.
+    pub val_median_rot_deg: f64,
+    /// Mean validation position error, metres.
+    pub val_mean_pos_m: f64,
+    /// Wall time of the epoch (training and validation), seconds.
+    pub seconds: f64,
+    /// Share of validation cells whose dominant-plane class the plane branch gets right (a
+    /// network with a plane branch only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub rotation: Option<Calibration>,
-    /// Of the temporal filter's fused covariance when this model feeds it, fitted by `track`
-    /// on the validation walk run through the filter; `None` until then.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub fused: Option<Calibration>,
-}
-
-/// Least variance of a position axis, m² (a millimetre): the parts can all be zero (one
-/// deterministic pass, no TTA, no scale output), and a covariance must stay invertible.
-pub const COVARIANCE_FLOOR_M2: f64 = 1e-6;
-
-/// Weights of the three variances `sigma_pos_m` adds up ([`crate::infer::SigmaParts`]).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SigmaWeights {
-    /// Weight of the MC spread².
-    pub mc: f64,
-    /// Weight of the TTA views' spread².
-    pub tta: f64,
-    /// Weight of the per-image scale's variance.
-    pub scale: f64,
-}
-
-impl SigmaWeights {
-    /// Every part as it is.
-    pub const UNIT: SigmaWeights = SigmaWeights {
-        mc: 1.0,
-        tta: 1.0,
-        scale: 1.0,
-    };
-
-    /// The weighed sum of `parts`' covariances, m², plus [`COVARIANCE_FLOOR_M2`] on the
-    /// position's `dims` axes so that it is positive definite there.
-    pub fn covariance(&self, parts: &SigmaParts, dims: usize) -> Matrix3<f64> {
-        let mut cov = parts.mc * self.mc + parts.tta * self.tta + parts.scale * self.scale;
-        for k in 0..dims.min(3) {
-            cov[(k, k)] += COVARIANCE_FLOOR_M2;
-        }
-        cov
-    }
-
-    fn check(&self) -> std::result::Result<(), String> {
-        let ok = [self.mc, self.tta, self.scale]
-            .iter()
-            .all(|w| w.is_finite() && *w >= 0.0);
-        if ok {
-            Ok(())
-        } else {
-            Err(format!(
-                "sigma weights {self:?} must be finite and not negative"
-            ))
-        }
-    }
+    pub val_plane_accuracy: Option<f64>,
 }
 
 impl ModelMeta {
@@ -290,7 +251,7 @@ impl ModelMeta {
 }
 
 /// The burnpack bytes of a module's weights (`path`: where they will go, for the error).
-pub fn weights_bytes<M: Module>(module: M, path: &Path) -> Result<Vec<u8>> {
+pub(crate) fn weights_bytes<M: Module>(module: M, path: &Path) -> Result<Vec<u8>> {
     let bytes = module
         .into_record()
         .into_bytes()
@@ -299,13 +260,13 @@ pub fn weights_bytes<M: Module>(module: M, path: &Path) -> Result<Vec<u8>> {
 }
 
 /// Writes `bytes` atomically to `dir/name` and returns their hash.
-pub fn write_file(dir: &Path, name: &str, bytes: &[u8]) -> Result<String> {
+pub(crate) fn write_file(dir: &Path, name: &str, bytes: &[u8]) -> Result<String> {
     data::io::write_atomic(&dir.join(name), |w| w.write_all(bytes))?;
     Ok(Fnv64::hex_of(bytes))
 }
 
 /// Reads `dir/name`, checking its hash against the one `model.toml` recorded.
-pub fn read_checked(dir: &Path, name: &str, hash: &str) -> Result<Vec<u8>> {
+pub(crate) fn read_checked(dir: &Path, name: &str, hash: &str) -> Result<Vec<u8>> {
     let path = dir.join(name);
     let bytes = std::fs::read(&path).map_err(|e| LearnError::io(&path, e))?;
     let actual = Fnv64::hex_of(&bytes);
@@ -322,7 +283,7 @@ pub fn read_checked(dir: &Path, name: &str, hash: &str) -> Result<Vec<u8>> {
 }
 
 /// Loads weights into a network built from `config` on `device`.
-pub fn load_weights(
+pub(crate) fn load_weights(
     config: &NetConfig,
     bytes: Vec<u8>,
     device: &burn::tensor::Device,
@@ -332,7 +293,7 @@ pub fn load_weights(
 }
 
 /// `module` with the weights in `bytes` (read from `path`, named in errors).
-pub fn load_into<M: Module>(module: M, bytes: Vec<u8>, path: &Path) -> Result<M> {
+pub(crate) fn load_into<M: Module>(module: M, bytes: Vec<u8>, path: &Path) -> Result<M> {
     let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(bytes))
         .map_err(|e| LearnError::corrupt(path, e.to_string()))?;
     module
@@ -342,7 +303,7 @@ pub fn load_into<M: Module>(module: M, bytes: Vec<u8>, path: &Path) -> Result<M>
 
 /// Writes the resume state of epoch `epoch` into `dir/folder` (`weights-NNNN.bpk`,
 /// `optimizer-NNNN.bpk`, atomically) and returns their names and hashes.
-pub fn write_state<M: Module>(
+pub(crate) fn write_state<M: Module>(
     dir: &Path,
     folder: &str,
     epoch: usize,
@@ -365,7 +326,7 @@ pub fn write_state<M: Module>(
 
 /// The module and optimizer of the resume state `state` in `dir`, loaded into `module` (built
 /// as the checkpoint's) and `optim` (of the same kind); each file checked against its hash.
-pub fn read_state<M: Module>(
+pub(crate) fn read_state<M: Module>(
     dir: &Path,
     state: &StateFiles,
     module: M,
@@ -382,7 +343,7 @@ pub fn read_state<M: Module>(
 
 /// Removes state files that `keep` does not name from the folder they are in (older epochs,
 /// leftovers of a killed run). Failing to remove one is harmless, so errors are ignored.
-pub fn prune_state(dir: &Path, keep: &StateFiles) {
+pub(crate) fn prune_state(dir: &Path, keep: &StateFiles) {
     let Some(folder) = Path::new(&keep.weights).parent() else {
         return;
     };
@@ -400,7 +361,7 @@ pub fn prune_state(dir: &Path, keep: &StateFiles) {
 /// Refuses to train into `dir` when it already holds the checkpoint described by `file`
 /// (`model.toml`, `seq.toml`, `place.toml`), unless `allowed` (the run resumes it or was told to
 /// replace it): the epochs it holds are otherwise lost to a repeated command.
-pub fn refuse_overwrite(dir: &Path, file: &str, allowed: bool) -> Result<()> {
+pub(crate) fn refuse_overwrite(dir: &Path, file: &str, allowed: bool) -> Result<()> {
     let path = dir.join(file);
     if allowed || !path.is_file() {
         return Ok(());

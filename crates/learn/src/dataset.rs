@@ -41,11 +41,6 @@ impl Samples {
         self.poses.len()
     }
 
-    /// True when there are no samples.
-    pub fn is_empty(&self) -> bool {
-        self.poses.is_empty()
-    }
-
     /// Sequence and frame number of sample `i`, from its `seq/frame` name; `None` when the
     /// frame's name does not end in a number (posed photos).
     pub fn frame_key(&self, i: usize) -> Option<(&str, u64)> {
@@ -110,8 +105,6 @@ impl Samples {
 pub struct TrainData {
     /// `dataset.toml`.
     pub info: DatasetInfo,
-    /// The splits used (from `splits.toml`, or made by sequence when the file is absent).
-    pub splits: Splits,
     /// Training samples.
     pub train: Samples,
     /// Validation samples.
@@ -291,7 +284,6 @@ pub fn load(
     hash.update(&val_hash.to_le_bytes());
     Ok(TrainData {
         info,
-        splits,
         train,
         val,
         hash: hash.hex(),

@@ -35,9 +35,10 @@ use image::DynamicImage;
 use imgproc::view::{View, ViewSpec};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
-use crate::checkpoint::{self, MODEL_BPK, ModelMeta, SigmaWeights, UncertaintyCalibration};
+use crate::checkpoint::{self, MODEL_BPK, ModelMeta};
 use crate::head::{PoseCoding, Task};
-use crate::net::{PoseNet, mc};
+use crate::net::PoseNet;
+use crate::sigma::{SigmaParts, SigmaWeights, UncertaintyCalibration};
 use crate::tta;
 use crate::{LearnError, Result};
 
@@ -109,7 +110,7 @@ impl Localizer {
     }
 
     /// The same localizer with test-time augmentation on or off (off by default): each image
-    /// is also seen as [`tta::TTA_VIEWS`]` − 1` shifted copies, at that many times the
+    /// is also seen as `tta::TTA_VIEWS − 1` (4) shifted copies, at that many times the
     /// backbone's cost.
     pub fn with_tta(mut self, tta: bool) -> Localizer {
         self.tta = tta;
@@ -144,7 +145,7 @@ impl Localizer {
     /// Global descriptors of views for image retrieval: the pretrained layers' map averaged
     /// over the image and L2-normalised, one row per view; `None` for a network without
     /// pretrained layers. ImageNet features find the same place from another viewpoint where
-    /// thumbnails do not (ARCHITECTURE.md, "Real data"). Run [`CHUNK`] views at a time.
+    /// thumbnails do not (ARCHITECTURE.md, "Real data"). Run `CHUNK` views at a time.
     pub fn descriptors(&self, views: &[View]) -> Result<Option<Vec<Vec<f32>>>> {
         let [c, h, w] = self.meta.input;
         let mut rows = Vec::with_capacity(views.len());
@@ -196,7 +197,7 @@ impl Localizer {
             .ok_or_else(|| LearnError::Input("no estimate for the view".into()))
     }
 
-    /// Poses of many views, run in batches of [`CHUNK`] images.
+    /// Poses of many views, run in batches of `CHUNK` images.
     pub fn predict_batch(&self, views: &[View], mc_passes: usize) -> Result<Vec<Estimate>> {
         let weights = self.meta.sigma_weights();
         let calibration = self.meta.uncertainty.as_ref();
@@ -274,7 +275,7 @@ pub(crate) fn pack_views(views: &[View], input: [usize; 3], view: &str) -> Resul
 
 /// How many rows each image gives: `views` plain passes (the image's view, then its TTA
 /// copies) and `mc` Monte-Carlo passes of its own view with dropout `p` (none for `mc` < 2),
-/// through the ensemble of masks drawn from `seed` ([`mc::ensemble_masks`]).
+/// through the ensemble of masks drawn from `seed` ([`crate::net::mc::ensemble_masks`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Passes {
     /// Views per image, the image's own first.
@@ -315,24 +316,6 @@ pub struct ImageOutputs {
     pub views: Vec<Vec<f32>>,
     /// The MC-dropout passes of the image's own view.
     pub mc: Vec<Vec<f32>>,
-}
-
-/// The three covariances (m², world axes) `cov_pos_m2` is made of, before weighing.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct SigmaParts {
-    /// Covariance of the MC samples' positions.
-    pub mc: Matrix3<f64>,
-    /// Covariance of the TTA views' positions about their mean.
-    pub tta: Matrix3<f64>,
-    /// The predicted per-image error scale's covariance (isotropic on the position's axes).
-    pub scale: Matrix3<f64>,
-}
-
-impl SigmaParts {
-    /// The traces of the MC, TTA and scale parts, m².
-    pub fn traces(&self) -> [f64; 3] {
-        [self.mc.trace(), self.tta.trace(), self.scale.trace()]
-    }
 }
 
 impl ImageOutputs {
@@ -476,7 +459,7 @@ pub fn predict_outputs(
 /// Outputs of `net` for packed inputs `[N · passes.views, C, H, W]`, one [`ImageOutputs`] per
 /// image. The backbone runs once per view; the MC passes reuse the image's own view's pooled
 /// features, repeated and masked by the ensemble of `passes.seed`, the same for every image
-/// ([`mc::ensemble_masks`]).
+/// ([`crate::net::mc::ensemble_masks`]).
 pub fn image_outputs(
     net: &PoseNet,
     inputs: &[f32],
@@ -497,7 +480,7 @@ pub fn image_outputs(
         let mc = if passes.mc > 1 && passes.p > 0.0 {
             let [_, f] = features.dims();
             let own = features.reshape([b, k, f]).narrow(1, 0, 1).reshape([b, f]);
-            rows_of(mc::mc_head(net, own, passes.mc, passes.p, passes.seed))?
+            rows_of(net.mc_head(own, passes.mc, passes.p, passes.seed))?
         } else {
             Vec::new()
         };

@@ -2,17 +2,30 @@
 //! This is the only crate that depends on burn.
 //!
 //! # Entry points
-//! - [`train`] with a [`TrainConfig`]: trains on a native dataset (train/val split by
+//! - [`train()`] with a [`TrainConfig`]: trains on a native dataset (train/val split by
 //!   sequence), checkpoints every epoch into a folder, resumes, stops early.
 //! - [`Localizer::load`] then [`Localizer::predict`] / [`Localizer::predict_batch`]: poses of
 //!   images with Monte-Carlo-dropout uncertainty ([`Estimate`]).
-//! - [`net`]: the networks ([`Arch::Small`], [`Arch::Resnet18`], layer for layer as the PyTorch
-//!   peer `torch_apr.py`; [`Arch::Mobilenetv2`] with torchvision's ImageNet weights, frozen,
-//!   from [`pretrained`]), [`loss`], [`head`] (what outputs mean), [`checkpoint`] (the folder
-//!   layout), [`dataset`] (views in memory), [`window`] (which runs of frames a sequence model
-//!   may see as one stretch of time), [`seq`] (the LSTM of a CNN+LSTM sequence model and its
-//!   live, resettable stream), [`planes`] (dominant-plane targets and loss of the auxiliary
-//!   plane task), [`explain`] (Grad-CAM: [`Explainer`] and [`Saliency`]).
+//! - [`checkpoint`]: the model folder ([`ModelMeta`] is its `model.toml`); [`calibrate`]: what
+//!   sigma's parts ([`SigmaParts`]) weigh ([`SigmaWeights`]) and mean
+//!   ([`UncertaintyCalibration`]).
+//! - The networks: [`Arch::Small`], [`Arch::Resnet18`] (layer for layer as the PyTorch peer
+//!   `torch_apr.py`), [`Arch::Mobilenetv2`] with torchvision's ImageNet weights, frozen, from
+//!   [`pretrained`]; [`NetConfig`] and [`HeadConfig`] say how one is built, [`PoseCoding`] what
+//!   its outputs mean.
+//! - [`seq`]: CNN+LSTM sequence models and their live, resettable stream, over [`window`]s of
+//!   frames; [`place`]: the place classifier and its smoothing along a walk; [`planes`]:
+//!   dominant-plane targets of the auxiliary plane task; [`Explainer`] and [`Saliency`]:
+//!   Grad-CAM; [`bench`](mod@bench): timings.
+//!
+//! # Layout
+//! Configurations and stored formats lie at the bottom, so that no module imports one that
+//! imports it back (`scripts/module-cycles.py crates/learn/src` checks it): `config`
+//! ([`TrainConfig`]), `sigma` ([`SigmaParts`], [`SigmaWeights`], [`UncertaintyCalibration`]) and
+//! [`checkpoint`] (`model.toml`, weights files) under `infer` ([`Localizer`]), [`calibrate`] and
+//! `train`; each of [`place`] and [`seq`] keeps its own stored format in a `meta` module under
+//! its training and inference. The networks (`net`, with its CPU kernels) know nothing of
+//! training or checkpoints.
 //!
 //! # Backend
 //! burn 0.22 picks the backend by device: training runs on `Device::flex().autodiff()`,
@@ -33,31 +46,35 @@
 pub mod bench;
 pub mod calibrate;
 pub mod checkpoint;
-pub mod dataset;
+mod config;
+mod dataset;
 mod error;
-pub mod explain;
+mod explain;
 mod hash;
-pub mod head;
-pub mod infer;
-pub mod kernels;
-pub mod loader;
-pub mod loss;
-pub mod net;
+mod head;
+mod infer;
+mod kernels;
+mod loader;
+mod loss;
+mod net;
 pub mod place;
 pub mod planes;
 pub mod pretrained;
-pub mod progress;
+mod progress;
 pub mod seq;
-pub mod train;
-pub mod tta;
+mod sigma;
+mod train;
+mod tta;
 pub mod window;
 
+pub use checkpoint::{EpochMetrics, ModelMeta};
+pub use config::{OptimizerKind, Schedule, TrainConfig};
+pub use dataset::HOLDOUT_EVERY;
 pub use error::{LearnError, Result};
 pub use explain::{CamLayer, Explainer, Saliency};
 pub use head::{PoseCoding, Task};
-pub use infer::{Estimate, Localizer};
+pub use infer::{DEFAULT_MC_SEED, Estimate, Localizer};
 pub use net::{Arch, HeadConfig, NetConfig, PoseNet};
 pub use progress::Progress;
-pub use train::{
-    EpochMetrics, Loaded, OptimizerKind, Schedule, TrainConfig, TrainEvent, TrainSummary, train,
-};
+pub use sigma::{SigmaParts, SigmaWeights, UncertaintyCalibration};
+pub use train::{Loaded, TrainEvent, TrainSummary, train};

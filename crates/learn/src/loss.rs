@@ -28,6 +28,7 @@ pub struct LossParts {
     /// Mean position error, metres, shape `[1]`.
     pub pos: Tensor<1>,
     /// Mean rotation-part distance (normalised prediction to target), shape `[1]`.
+    #[cfg_attr(not(test), expect(dead_code, reason = "only the tests read it"))]
     pub rot: Tensor<1>,
 }
 

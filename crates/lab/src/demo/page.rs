@@ -27,7 +27,7 @@ pub struct PageInput<'a> {
     /// The test frames were seen with test-time augmentation (its spread is part of sigma).
     pub tta: bool,
     /// The weights of sigma's parts (fitted on the validation walk).
-    pub weights: learn::checkpoint::SigmaWeights,
+    pub weights: learn::SigmaWeights,
     /// How training went.
     pub summary: &'a TrainSummary,
     /// The walk with scene cuts through the temporal filter.

@@ -14,7 +14,7 @@ mod gemm;
 use burn::backend::{Dispatch, DispatchDevice};
 use burn::tensor::{DType, Tensor};
 
-pub use ext::{BatchNormOutput, FastOps};
+pub use ext::FastOps;
 
 /// Whether the kernels can take these tensors: f32 on a `flex` device (the only backend this
 /// crate builds). Callers fall back to burn's own ops otherwise.

@@ -7,8 +7,6 @@ use burn::tensor::{Device, Tensor, TensorData};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::PoseNet;
-
 /// An inverted-dropout mask `[rows, cols]`: each entry is 0 with probability `p`, else
 /// `1 / (1 − p)`, so the expected activation is unchanged and no rescaling is needed when
 /// dropout is off. `p` is clamped to `[0, 0.99]`.
@@ -71,23 +69,6 @@ fn to_tensors(values: Vec<Vec<f32>>, widths: &[usize], device: &Device) -> Vec<T
             Tensor::from_data(TensorData::new(v, [rows, w]), device)
         })
         .collect()
-}
-
-/// `passes` stochastic head outputs per row of pooled `features` `[B, F]`:
-/// `[B * passes, outputs]`, rows `b * passes .. (b + 1) * passes` belonging to image `b`, seen
-/// through the ensemble of `seed` ([`ensemble_masks`]). Only the features are repeated and
-/// sent through the masked head; the backbone ran once.
-pub fn mc_head(net: &PoseNet, features: Tensor<2>, passes: usize, p: f64, seed: u64) -> Tensor<2> {
-    let [b, f] = features.dims();
-    let repeated = features
-        .unsqueeze_dim::<3>(1)
-        .repeat_dim(1, passes)
-        .reshape([b * passes, f]);
-    let masks = ensemble_masks(passes, &net.mask_widths(f), p, seed, &repeated.device())
-        .into_iter()
-        .map(|m| m.repeat_dim(0, b))
-        .collect();
-    net.head_masked(repeated, masks)
 }
 
 #[cfg(test)]

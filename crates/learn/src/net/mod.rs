@@ -11,7 +11,7 @@
 mod conv;
 mod inception;
 pub mod mc;
-mod mobilenet;
+pub(crate) mod mobilenet;
 mod planes;
 mod resnet;
 mod small;
@@ -33,10 +33,8 @@ use crate::head::Task;
 use crate::{LearnError, Result};
 
 pub use inception::{INCEPTION_FEATURES, INCEPTION_MID_CHANNELS, InceptionNet};
-pub use mobilenet::{
-    MOBILENET_CUT_CHANNELS, MOBILENET_FEATURES, MOBILENET_GRID, MOBILENET_MID_CHANNELS, MobileNetV2,
-};
-pub use planes::{PLANE_FEATURES, PlaneBranch};
+pub use mobilenet::{MOBILENET_FEATURES, MOBILENET_MID_CHANNELS, MobileNetV2};
+pub use planes::{PLANE_CLASSES, PLANE_FEATURES, PLANE_PARAMS, PlaneBranch};
 pub use resnet::{RESNET_FEATURES, RESNET_MID_CHANNELS, RESNET18_BLOCKS, RESNET34_BLOCKS, ResNet};
 pub use small::{SMALL_CHANNELS, SMALL_MID_CHANNELS, SmallNet};
 
@@ -83,7 +81,7 @@ impl Arch {
         }
     }
 
-    /// Channels of the stride-8 map the plane branch reads ([`Backbone::forward_mid`]).
+    /// Channels of the stride-8 map the plane branch reads (`Backbone::forward_mid`).
     pub fn mid_features(self) -> usize {
         match self {
             Arch::Small => SMALL_MID_CHANNELS,
@@ -149,7 +147,7 @@ pub struct NetConfig {
     /// two parts then cannot compete for one network's features.
     #[serde(default)]
     pub split: bool,
-    /// A dominant-plane branch on the (first) backbone's stride-8 map ([`PlaneBranch`]),
+    /// A dominant-plane branch on the (first) backbone's stride-8 map (`PlaneBranch`),
     /// trained on plane classes, parameters and the depth they induce; its pooled features
     /// join the pose head's input.
     #[serde(default)]
@@ -467,7 +465,7 @@ pub struct PlaneOutputs {
 }
 
 /// A pose-regression network: one network (backbone, pool, optional hidden layer, output
-/// layer), or two with [`NetConfig::split`], the second ([`Branch`]) for the rotation. Each
+/// layer), or two with [`NetConfig::split`], the second (`Branch`) for the rotation. Each
 /// network computes every output and the unused ones are dropped (a few hundred weights, for
 /// one code path). Outputs: the position, the rotation, then the scale when the head has one.
 #[derive(Module, Debug)]
@@ -585,7 +583,7 @@ impl PoseNet {
 
     /// The head applied to features `[B, F] -> [B, outputs]`, with dropout of probability `p`
     /// on the features and on the hidden layers, masks drawn from `rng` row by row
-    /// ([`mc::row_masks`]); `p = 0` draws nothing.
+    /// (`mc::row_masks`); `p = 0` draws nothing.
     pub fn head(&self, features: Tensor<2>, p: f64, rng: &mut ChaCha8Rng) -> Tensor<2> {
         let [rows, width] = features.dims();
         if p <= 0.0 {
@@ -593,6 +591,23 @@ impl PoseNet {
         }
         let masks = mc::row_masks(rows, &self.mask_widths(width), p, rng, &features.device());
         self.head_masked(features, masks)
+    }
+
+    /// `passes` stochastic head outputs per row of pooled `features` `[B, F]`:
+    /// `[B * passes, outputs]`, rows `b * passes .. (b + 1) * passes` belonging to image `b`,
+    /// seen through the ensemble of `seed` (`mc::ensemble_masks`). Only the features are
+    /// repeated and sent through the masked head; the backbone ran once.
+    pub fn mc_head(&self, features: Tensor<2>, passes: usize, p: f64, seed: u64) -> Tensor<2> {
+        let [b, f] = features.dims();
+        let repeated = features
+            .unsqueeze_dim::<3>(1)
+            .repeat_dim(1, passes)
+            .reshape([b * passes, f]);
+        let masks = mc::ensemble_masks(passes, &self.mask_widths(f), p, seed, &repeated.device())
+            .into_iter()
+            .map(|m| m.repeat_dim(0, b))
+            .collect();
+        self.head_masked(repeated, masks)
     }
 
     /// The head without dropout.
@@ -678,7 +693,7 @@ impl PoseNet {
     }
 
     /// The network with the pretrained backbone's weights read from `path` (see
-    /// [`MobileNetV2::load_torchvision`]); other backbones have none and are refused.
+    /// `MobileNetV2::load_torchvision`); other backbones have none and are refused.
     pub fn load_pretrained(self, path: &std::path::Path, device: &Device) -> Result<Self> {
         if self.rotation.is_some() || self.planes.is_some() {
             return Err(LearnError::Config(
@@ -845,7 +860,7 @@ mod tests {
         assert_eq!(net.features(x.clone()).dims(), [2, 2 * 256]);
         assert_eq!(net.forward(x.clone()).dims(), [2, 5]);
         let features = net.features(x);
-        assert_eq!(mc::mc_head(&net, features, 3, 0.2, 1).dims(), [6, 5]);
+        assert_eq!(net.mc_head(features, 3, 0.2, 1).dims(), [6, 5]);
         assert!(config(Arch::Small, 2).init(&device, 0).is_err());
         Ok(())
     }

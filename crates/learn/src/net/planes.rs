@@ -11,7 +11,11 @@ use burn::nn::conv::{Conv2d, Conv2dConfig};
 use burn::tensor::{Device, Tensor};
 
 use super::conv::ConvBn;
-use crate::planes::{PLANE_CLASSES, PLANE_PARAMS};
+
+/// Classes of the plane a cell sees (index 0: none; [`crate::planes::PlaneClass`]).
+pub const PLANE_CLASSES: usize = 6;
+/// Plane parameters per cell: the normal's three components and `ln d`.
+pub const PLANE_PARAMS: usize = 4;
 
 /// Channels of the branch's feature map (and width it adds to the pooled features).
 pub const PLANE_FEATURES: usize = 64;

@@ -10,10 +10,10 @@ use burn::tensor::{Device, Tensor, TensorData};
 use image::DynamicImage;
 use imgproc::view::{View, ViewSpec};
 
-use super::{
-    PLACE_BPK, PLACE_TOML, PlaceMeta, PlaceNet, PlaceSmoother, argmax, decode, joint,
-    place_posterior,
-};
+use super::classes::{argmax, decode, joint, place_posterior};
+use super::meta::{PLACE_BPK, PLACE_TOML, PlaceMeta};
+use super::net::PlaceNet;
+use super::walk::PlaceSmoother;
 use crate::checkpoint;
 use crate::infer::{CHUNK, pack_views};
 use crate::{LearnError, Result};

@@ -22,149 +22,22 @@ use imgproc::view::ViewSpec;
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
 
+use super::classes::PlaceClasses;
 use super::infer::classify;
-use super::{
-    PLACE_BPK, PLACE_FORMAT, PLACE_STATE_DIR, PLACE_TOML, PlaceClasses, PlaceEpoch, PlaceMeta,
-    PlaceNet, PlaceNetConfig, PlaceTransitions,
+use super::meta::{
+    PLACE_BPK, PLACE_FORMAT, PLACE_STATE_DIR, PLACE_TOML, PlaceConfig, PlaceEpoch, PlaceMeta,
+    PlaceSplit,
 };
+use super::net::{PlaceNet, PlaceNetConfig};
+use super::walk::PlaceTransitions;
 use crate::checkpoint::{self, DatasetRef, StateFiles};
+use crate::config::Schedule;
 use crate::dataset::{self, DEFAULT_VAL_FRACTION, Samples};
 use crate::loader;
-use crate::net::{Arch, mc};
+use crate::net::mc;
 use crate::progress::Progress;
-use crate::train::Schedule;
 use crate::{LearnError, Result};
-
-/// How training and validation frames are told apart.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum PlaceSplit {
-    /// By recording session (sequence), as the dataset's splits say.
-    Session,
-    /// Frames drawn at random from the pooled training and validation frames (leaky).
-    Random,
-}
-
-impl std::str::FromStr for PlaceSplit {
-    type Err = LearnError;
-    fn from_str(s: &str) -> Result<Self> {
-        match s.trim() {
-            "session" => Ok(PlaceSplit::Session),
-            "random" => Ok(PlaceSplit::Random),
-            other => Err(LearnError::Config(format!(
-                "unknown split '{other}'; known: session, random"
-            ))),
-        }
-    }
-}
-
-/// Everything [`train_place`] needs; [`PlaceConfig::new`] gives the defaults.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PlaceConfig {
-    /// Native dataset folder with `labels.csv`.
-    pub data: PathBuf,
-    /// Checkpoint folder (may also hold a pose model).
-    pub out: PathBuf,
-    /// Backbone.
-    pub arch: Arch,
-    /// View preset or spec text; `None`: `place240`.
-    pub view: Option<String>,
-    /// Epochs to reach.
-    pub epochs: usize,
-    /// Images per step (at least 2).
-    pub batch_size: usize,
-    /// Base learning rate (cosine decay to 1 %).
-    pub lr: f64,
-    /// AdamW weight decay.
-    pub weight_decay: f64,
-    /// Dropout on the pooled features.
-    pub dropout: f64,
-    /// Side of the pooling grid ([`PlaceNetConfig::grid`]).
-    #[serde(default = "super::global_pool")]
-    pub grid: usize,
-    /// Session or random split.
-    pub split: PlaceSplit,
-    /// Jitter the training views ([`crate::loader::jitter_view`]).
-    pub augment: bool,
-    /// Restyle half the training views ([`crate::loader::style_view`]): the place is told by
-    /// layout and fittings, not by how the lamps light the paint today.
-    #[serde(default)]
-    pub shape_bias: bool,
-    /// Zoom and shift the training views a little ([`crate::loader::reframe_view`]): new
-    /// viewpoints between the walks' frames.
-    #[serde(default)]
-    pub reframe: bool,
-    /// Stop after this many epochs without a better mean validation accuracy.
-    pub patience: Option<usize>,
-    /// Seed of initialisation, order, jitter and dropout.
-    pub seed: u64,
-    /// Continue from the checkpoint in `out`.
-    pub resume: bool,
-    /// Replace a place model already in `out` (without it or `resume` one is refused).
-    #[serde(default, skip_serializing)]
-    pub force: bool,
-}
-
-impl PlaceConfig {
-    /// Defaults: small network, `place240`, a 2x2 pooling grid, 10 epochs of 32 images, AdamW
-    /// at 1e-3 with weight decay 1e-4, dropout 0.2, session split, patience 5, seed 0.
-    pub fn new(data: impl Into<PathBuf>, out: impl Into<PathBuf>) -> PlaceConfig {
-        PlaceConfig {
-            data: data.into(),
-            out: out.into(),
-            arch: Arch::Small,
-            view: None,
-            epochs: 10,
-            batch_size: 32,
-            lr: 1e-3,
-            weight_decay: 1e-4,
-            dropout: 0.2,
-            grid: 2,
-            split: PlaceSplit::Session,
-            augment: false,
-            shape_bias: false,
-            reframe: false,
-            patience: Some(5),
-            seed: 0,
-            resume: false,
-            force: false,
-        }
-    }
-
-    fn validate(&self) -> Result<()> {
-        let bad = |m: String| Err(LearnError::Config(m));
-        if self.epochs == 0 {
-            return bad("epochs must be at least 1".into());
-        }
-        if self.batch_size < 2 {
-            return bad("batch size must be at least 2 (BatchNorm)".into());
-        }
-        if !(self.lr.is_finite() && self.lr > 0.0) {
-            return bad(format!("learning rate {} must be positive", self.lr));
-        }
-        if !(self.weight_decay.is_finite() && self.weight_decay >= 0.0) {
-            return bad(format!("weight decay {} must be >= 0", self.weight_decay));
-        }
-        if !(0.0..1.0).contains(&self.dropout) {
-            return bad(format!("dropout {} must be in [0, 1)", self.dropout));
-        }
-        Ok(())
-    }
-
-    fn resume_key(&self) -> PlaceConfig {
-        PlaceConfig {
-            data: PathBuf::new(),
-            out: PathBuf::new(),
-            epochs: 0,
-            patience: None,
-            resume: false,
-            force: false,
-            ..self.clone()
-        }
-    }
-}
 
 /// What [`train_place`] loaded before its first epoch.
 #[derive(Clone, Debug, PartialEq)]
@@ -309,7 +182,7 @@ pub fn train_place(
     progress: &mut dyn FnMut(&PlaceEvent),
 ) -> Result<PlaceSummary> {
     cfg.validate()?;
-    crate::checkpoint::refuse_overwrite(&cfg.out, super::PLACE_TOML, cfg.resume || cfg.force)?;
+    crate::checkpoint::refuse_overwrite(&cfg.out, PLACE_TOML, cfg.resume || cfg.force)?;
     let t0 = Instant::now();
     let spec = ViewSpec::resolve(cfg.view.as_deref().unwrap_or("place240"))
         .map_err(|e| LearnError::Config(e.to_string()))?;

@@ -10,7 +10,7 @@
 //! top of it on a laptop CPU, and let the study compare the two on exactly the same CNN. So
 //! that the LSTM does not learn to trust features that are cleaner on training frames than on
 //! new ones, training windows see the features of jittered views too
-//! ([`crate::loader::jitter_view`]) and dropout masks on every frame's features (the same masks
+//! (`loader::jitter_view`) and dropout masks on every frame's features (the same masks
 //! give Monte-Carlo uncertainty at inference).
 //!
 //! # Files (beside the single-frame model's)
@@ -29,10 +29,6 @@
 //! frame at a time with the LSTM state carried over ([`SeqTracker::step`]); a scene cut or a new
 //! recording calls [`SeqTracker::reset`].
 
-/// The most LSTM units a sequence model has: its gates hold `4·H·(F + O + H)` weights, and a
-/// hand-edited `seq.toml` must not ask for gigabytes before its weights are read.
-pub const MAX_LSTM_UNITS: usize = 4096;
-
 mod head;
 mod infer;
 mod meta;
@@ -41,6 +37,8 @@ mod train;
 
 pub use head::{SeqHead, SeqHeadConfig};
 pub use infer::{SeqLocalizer, SeqTracker};
-pub use meta::{SEQ_BPK, SEQ_STATE_DIR, SEQ_TOML, SeqEpoch, SeqMeta};
+pub use meta::{
+    MAX_LSTM_UNITS, SEQ_BPK, SEQ_FORMAT, SEQ_STATE_DIR, SEQ_TOML, SeqConfig, SeqEpoch, SeqMeta,
+};
 pub use stream::SeqStream;
-pub use train::{SeqConfig, SeqEvent, SeqFeatures, SeqSummary, train_sequence};
+pub use train::{MAX_STEP_RATIO, SeqEvent, SeqFeatures, SeqSummary, train_sequence};

@@ -21,12 +21,12 @@ use geom::Pose;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
 
 use super::head::{SeqHead, SeqHeadConfig};
 use super::infer::{frames_of, run_outputs};
-use super::meta::{SEQ_BPK, SEQ_FORMAT, SEQ_STATE_DIR, SEQ_TOML, SeqEpoch, SeqMeta};
+use super::meta::{SEQ_BPK, SEQ_FORMAT, SEQ_STATE_DIR, SEQ_TOML, SeqConfig, SeqEpoch, SeqMeta};
 use crate::checkpoint::{self, DatasetRef, StateFiles};
+use crate::config::validation_score;
 use crate::dataset::{self, Samples};
 use crate::head::PoseCoding;
 use crate::infer::{self, Localizer};
@@ -34,129 +34,8 @@ use crate::loader;
 use crate::loss::pose_loss;
 use crate::net::{PoseNet, mc};
 use crate::progress::Progress;
-use crate::train::{Schedule, validation_score};
 use crate::window;
 use crate::{LearnError, Result};
-
-/// Everything [`train_sequence`] needs; [`SeqConfig::new`] gives the defaults.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SeqConfig {
-    /// Dataset of the training and validation recordings: the single-frame model's own, or
-    /// another of the same place and camera whose recordings run at the rate the sequence
-    /// model will (see [`MAX_STEP_RATIO`]). Frames the CNN never trained on give the LSTM
-    /// features as noisy as a new frame's.
-    pub data: PathBuf,
-    /// Checkpoint folder of the single-frame model; the sequence part is written beside it.
-    pub model: PathBuf,
-    /// Frames per training window (K).
-    pub window: usize,
-    /// Frames between the starts of consecutive training windows.
-    pub stride: usize,
-    /// LSTM units.
-    pub hidden: usize,
-    /// Epochs to reach (a resumed run continues up to this number).
-    pub epochs: usize,
-    /// Windows per step.
-    pub batch_size: usize,
-    /// Base learning rate.
-    pub lr: f64,
-    /// Learning-rate schedule over the whole run.
-    pub schedule: Schedule,
-    /// AdamW weight decay.
-    pub weight_decay: f64,
-    /// β of the pose loss; `None`: the single-frame model's.
-    pub beta: Option<f64>,
-    /// Dropout on each frame's features; `None`: the single-frame model's.
-    pub dropout: Option<f64>,
-    /// Jittered copies of each training view whose features windows draw from, besides the
-    /// clean view ([`crate::loader::jitter_view`]).
-    pub jittered_copies: usize,
-    /// Stop after this many epochs without a better validation median position error.
-    pub patience: Option<usize>,
-    /// Seed of initialisation, window order, jitter and dropout.
-    pub seed: u64,
-    /// Continue from the sequence checkpoint in `model` when there is one.
-    pub resume: bool,
-    /// Replace a sequence part already in `model` (without it or `resume` one is refused).
-    #[serde(default, skip_serializing)]
-    pub force: bool,
-}
-
-impl SeqConfig {
-    /// Defaults: windows of 20 frames every frame (on the quick demo's walks windows of 10
-    /// lost to the single frame on one seed of two: `study sequence --quick`), 256 LSTM units,
-    /// 10 epochs of 32 windows a step, AdamW at 1e-3 (cosine decay to 1 %) with weight decay
-    /// 1e-4, β and dropout of the single-frame model, two jittered copies, patience 4, seed 0.
-    pub fn new(data: impl Into<PathBuf>, model: impl Into<PathBuf>) -> SeqConfig {
-        SeqConfig {
-            data: data.into(),
-            model: model.into(),
-            window: 20,
-            stride: 1,
-            hidden: 256,
-            epochs: 10,
-            batch_size: 32,
-            lr: 1e-3,
-            schedule: Schedule::Cosine {
-                final_fraction: 0.01,
-            },
-            weight_decay: 1e-4,
-            beta: None,
-            dropout: None,
-            jittered_copies: 2,
-            patience: Some(4),
-            seed: 0,
-            resume: false,
-            force: false,
-        }
-    }
-
-    fn validate(&self) -> Result<()> {
-        let bad = |m: String| Err(LearnError::Config(m));
-        if self.window < 2 {
-            return bad(format!(
-                "window {} too short: a sequence model needs at least 2 frames",
-                self.window
-            ));
-        }
-        if self.stride == 0 || self.hidden == 0 || self.epochs == 0 || self.batch_size == 0 {
-            return bad("stride, LSTM units, epochs and batch size must be at least 1".into());
-        }
-        if self.hidden > super::MAX_LSTM_UNITS {
-            return bad(format!(
-                "{} LSTM units, more than {}",
-                self.hidden,
-                super::MAX_LSTM_UNITS
-            ));
-        }
-        if !(self.lr.is_finite() && self.lr > 0.0) {
-            return bad(format!("learning rate {} must be positive", self.lr));
-        }
-        if !(self.weight_decay.is_finite() && self.weight_decay >= 0.0) {
-            return bad(format!("weight decay {} must be >= 0", self.weight_decay));
-        }
-        if self.beta.is_some_and(|b| !(b.is_finite() && b >= 0.0)) {
-            return bad("beta must be >= 0".into());
-        }
-        if self.dropout.is_some_and(|p| !(0.0..1.0).contains(&p)) {
-            return bad("dropout must be in [0, 1)".into());
-        }
-        self.schedule.validate()
-    }
-
-    /// The fields a resumed run must share with the checkpoint.
-    fn resume_key(&self) -> SeqConfig {
-        SeqConfig {
-            data: PathBuf::new(),
-            model: PathBuf::new(),
-            epochs: 0,
-            patience: None,
-            resume: false,
-            force: false,
-            ..self.clone()
-        }
-    }
-}
 
 /// What [`train_sequence`] computed before its first epoch.
 #[derive(Clone, Debug, PartialEq)]
