@@ -282,6 +282,10 @@ def absolute(mods, at, segs):
         return at + tuple(segs)
     if first in mod.imports:
         target = mod.imports[first]
+        if target and target[0] == first:
+            # `use map::{self, ...}` of an extern crate that shares its name with a module of
+            # this crate (lab's `map` command and the `map` crate): an outside path.
+            return None
         resolved = absolute(mods, at, target)
         if resolved is None:
             return None

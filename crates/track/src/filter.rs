@@ -317,7 +317,7 @@ mod tests {
         Measurement {
             t,
             pose: p,
-            cov_pos_m2: crate::estimator::isotropic_cov(sigma),
+            cov_pos_m2: nalgebra::Matrix3::identity() * (sigma * sigma / 3.0),
             sigma_rot_rad: 0.05,
         }
     }
