@@ -341,11 +341,7 @@ fn prepare_demo(dir: &Path) -> Result<(PathBuf, PathBuf, scene::ScenePlan)> {
         dir.display(),
         dir.display()
     ));
-    let args = demo::DemoConfig {
-        out: dir.to_path_buf(),
-        quick: true,
-        ..demo::DemoConfig::default()
-    };
+    let args = demo::DemoConfig::quick(dir);
     let prepared = demo::render_and_train(&args, &|t| crate::progress::note(t))?;
     Ok((
         prepared.model_dir.clone(),

@@ -152,6 +152,17 @@ pub struct DemoConfig {
     pub json: bool,
 }
 
+impl DemoConfig {
+    /// The quick demo (`indoorloc demo --quick`): a few minutes on two cores, in `out`.
+    pub fn quick(out: impl Into<PathBuf>) -> DemoConfig {
+        DemoConfig {
+            out: out.into(),
+            quick: true,
+            ..DemoConfig::default()
+        }
+    }
+}
+
 impl Default for DemoConfig {
     fn default() -> DemoConfig {
         DemoConfig {
