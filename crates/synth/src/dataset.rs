@@ -66,6 +66,25 @@ pub enum CameraKind {
     Ceiling,
 }
 
+impl CameraKind {
+    /// Degrees of freedom of its poses as `dataset.toml` states them: a ceiling camera on a
+    /// robot moves in the plane (3), a forward camera freely (6).
+    pub fn dof(self) -> u8 {
+        match self {
+            CameraKind::Forward => 6,
+            CameraKind::Ceiling => 3,
+        }
+    }
+
+    /// How it is mounted, as `dataset.toml` states it.
+    pub fn mount(self) -> Mount {
+        match self {
+            CameraKind::Forward => Mount::Forward,
+            CameraKind::Ceiling => Mount::Ceiling,
+        }
+    }
+}
+
 /// Everything that shapes a synthetic dataset.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SynthConfig {
@@ -163,8 +182,8 @@ pub fn rig_of(kind: CameraKind) -> Rig {
     }
 }
 
-/// One frame to render: where, when, and which sequence.
-struct Shot {
+/// One frame of [`run`]'s plan: where, when, and which sequence (by number).
+struct Planned {
     seq: usize,
     frame: PosedFrame,
 }
@@ -215,63 +234,180 @@ pub fn run(
     });
     let rig = rig_of(cfg.camera);
     let camera = trajectory::camera_for(&rig, cfg.width, cfg.height, cfg.seed)?;
-    let (shots, cuts, fps) = plan_shots(&world, cfg, &rig)?;
-    let scene = RenderScene::new(&world)?;
+    let (planned, cuts, fps) = plan_shots(&world, cfg, &rig)?;
     let left_out = crowd
         .as_ref()
-        .map(|c| people_left_out(c, &world, &shots, &cuts))
-        .unwrap_or_else(|| vec![Vec::new(); shots.len()]);
+        .map(|c| people_left_out(c, &world, &planned, &cuts))
+        .unwrap_or_default();
+    let names: Vec<String> = (0..cfg.sequences).map(seq_name).collect();
+    let shots: Vec<Shot> = planned
+        .iter()
+        .enumerate()
+        .map(|(index, p)| Shot {
+            index: index as u64,
+            seq: &names[p.seq],
+            frame: &p.frame,
+            mode: cfg.mode,
+            left_out: left_out.get(index).map_or(&[], Vec::as_slice),
+        })
+        .collect();
 
-    for sub in ["frames", "depth", "planes"] {
+    // Every image folder, also those of outputs turned off: the layout of every synth dataset.
+    for sub in IMAGE_DIRS {
         let dir = out.join(sub);
         std::fs::create_dir_all(&dir).map_err(|source| SynthError::Io { path: dir, source })?;
     }
-    let done = AtomicUsize::new(0);
-    let rendered = AtomicUsize::new(0);
+    let options = ExportOptions {
+        seed: cfg.seed,
+        depth: cfg.depth,
+        planes: cfg.planes,
+        resume: cfg.resume,
+    };
+    let export = Export::new(out, &camera, options, progress)?;
     let start = std::time::Instant::now();
-    shots.par_iter().enumerate().try_for_each_init(
-        Renderer::new,
-        |renderer, (index, shot)| -> Result<()> {
-            let frame_path = native::image_path(out, "frames", index as u64);
-            let on_disk = |sub: &str| native::image_path(out, sub, index as u64).is_file();
-            let complete = frame_path.is_file()
-                && (!cfg.depth || on_disk("depth"))
-                && (!cfg.planes || on_disk("planes"));
-            if !(cfg.resume && complete) {
-                let opts = RenderOptions {
-                    mode: cfg.mode,
-                    seed: cfg.seed.wrapping_mul(1_000_003).wrapping_add(index as u64),
-                    ..RenderOptions::default()
-                };
-                let extra = crowd
-                    .as_ref()
-                    .map(|c| c.triangles_without(&world, shot.frame.t, &left_out[index]))
-                    .unwrap_or_default();
-                let img = renderer.render(&scene, &camera, &shot.frame.pose, &opts, &extra)?;
-                write_png(&frame_path, &encode_rgb(&img.rgb)?)?;
-                if cfg.depth {
-                    let path = native::image_path(out, "depth", index as u64);
-                    write_png(&path, &encode_depth_mm(&img.depth, cfg.width, cfg.height)?)?;
-                }
-                if cfg.planes {
-                    let path = native::image_path(out, "planes", index as u64);
-                    write_png(&path, &encode_planes(&img.plane, cfg.width, cfg.height)?)?;
-                }
-                rendered.fetch_add(1, Ordering::Relaxed);
-            }
-            progress(done.fetch_add(1, Ordering::Relaxed) + 1);
-            Ok(())
-        },
-    )?;
+    export.render(&world, crowd.as_ref(), &shots)?;
     let render_seconds = start.elapsed().as_secs_f64();
 
-    write_metadata(cfg, out, &world, &camera, &shots, &cuts, fps)?;
+    let splits = native::split_by_sequence(&names, 0.15, 0.15, cfg.seed);
+    let cuts = (!cuts.is_empty()).then_some(cuts.as_slice());
+    let info = dataset_info(cfg, &world, &camera, fps);
+    write_metadata(out, &info, &shots, true, cuts, &splits)?;
     Ok(SynthSummary {
         frames: shots.len(),
-        rendered: rendered.into_inner(),
+        rendered: export.rendered(),
         render_seconds,
         warnings,
     })
+}
+
+/// What every frame of one dataset shares, whichever world renders it: which images it writes
+/// besides the colour frame, and the seed its render noise is drawn from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ExportOptions {
+    /// Seed of the render noise; frame `index` draws its own from `seed * 1_000_003 + index`,
+    /// so a frame looks the same whichever order or group renders it.
+    pub seed: u64,
+    /// Write `depth/` (16-bit millimetres).
+    pub depth: bool,
+    /// Write `planes/` (8-bit dominant-plane ids).
+    pub planes: bool,
+    /// Keep a frame whose every output is already on disk instead of rendering it again
+    /// (finishing an interrupted run).
+    pub resume: bool,
+}
+
+/// One frame of a native dataset to render: everything that varies from frame to frame. The
+/// world it is rendered in is the [`Export::render`] call's, so that frames of several
+/// appearance variants or material draws go into one dataset, each group from its own world.
+#[derive(Clone, Copy, Debug)]
+pub struct Shot<'a> {
+    /// Frame number in the dataset: the name of its images and of its line in `poses.csv`, and
+    /// the seed of its render noise.
+    pub index: u64,
+    /// Name of its sequence in `poses.csv` (splits are made of sequences).
+    pub seq: &'a str,
+    /// The camera's pose, the time (where the people walking the world are) and the place
+    /// (the labels of `labels.csv`).
+    pub frame: &'a PosedFrame,
+    /// How it is rendered.
+    pub mode: RenderMode,
+    /// Per person of the crowd, whether they are left out of this frame (too close to the
+    /// camera somewhere in its shot, [`PERSON_CLEARANCE_M`]); missing entries count as
+    /// present. Unused without a crowd.
+    pub left_out: &'a [bool],
+}
+
+/// A native dataset being rendered into a folder with one camera: [`Shot`]s are rendered in
+/// parallel (one [`Renderer`] per worker) into `frames/`, `depth/` and `planes/`, in one call
+/// per world they are seen in, and counted across calls for `progress`.
+pub struct Export<'a> {
+    out: &'a Path,
+    camera: &'a Camera,
+    options: ExportOptions,
+    progress: &'a (dyn Fn(usize) + Sync),
+    done: AtomicUsize,
+    rendered: AtomicUsize,
+}
+
+impl<'a> Export<'a> {
+    /// Makes the image folders the options ask for in `out`; `progress` is called with the
+    /// number of frames done so far (kept on disk with `resume` included).
+    pub fn new(
+        out: &'a Path,
+        camera: &'a Camera,
+        options: ExportOptions,
+        progress: &'a (dyn Fn(usize) + Sync),
+    ) -> Result<Self> {
+        let subs = [
+            ("frames", true),
+            ("depth", options.depth),
+            ("planes", options.planes),
+        ];
+        for (sub, _) in subs.iter().filter(|(_, on)| *on) {
+            let dir = out.join(sub);
+            std::fs::create_dir_all(&dir).map_err(|source| SynthError::Io { path: dir, source })?;
+        }
+        Ok(Export {
+            out,
+            camera,
+            options,
+            progress,
+            done: AtomicUsize::new(0),
+            rendered: AtomicUsize::new(0),
+        })
+    }
+
+    /// Renders `shots` in `world`, with the people of `crowd` walking it, and writes their
+    /// images.
+    pub fn render(&self, world: &World, crowd: Option<&Crowd>, shots: &[Shot<'_>]) -> Result<()> {
+        let scene = RenderScene::new(world)?;
+        let ExportOptions {
+            seed,
+            depth,
+            planes,
+            resume,
+        } = self.options;
+        let (width, height) = (self.camera.width, self.camera.height);
+        shots
+            .par_iter()
+            .try_for_each_init(Renderer::new, |renderer, shot| -> Result<()> {
+                let path = |sub: &str| {
+                    self.out
+                        .join(sub)
+                        .join(format!("{}.png", native::frame_name(shot.index)))
+                };
+                let complete = path("frames").is_file()
+                    && (!depth || path("depth").is_file())
+                    && (!planes || path("planes").is_file());
+                if !(resume && complete) {
+                    let opts = RenderOptions {
+                        mode: shot.mode,
+                        seed: seed.wrapping_mul(1_000_003).wrapping_add(shot.index),
+                        ..RenderOptions::default()
+                    };
+                    let extra = crowd
+                        .map(|c| c.triangles_without(world, shot.frame.t, shot.left_out))
+                        .unwrap_or_default();
+                    let img =
+                        renderer.render(&scene, self.camera, &shot.frame.pose, &opts, &extra)?;
+                    write_png(&path("frames"), &encode_rgb(&img.rgb)?)?;
+                    if depth {
+                        write_png(&path("depth"), &encode_depth_mm(&img.depth, width, height)?)?;
+                    }
+                    if planes {
+                        write_png(&path("planes"), &encode_planes(&img.plane, width, height)?)?;
+                    }
+                    self.rendered.fetch_add(1, Ordering::Relaxed);
+                }
+                (self.progress)(self.done.fetch_add(1, Ordering::Relaxed) + 1);
+                Ok(())
+            })
+    }
+
+    /// Frames rendered so far (those kept on disk with `resume` not counted).
+    pub fn rendered(&self) -> usize {
+        self.rendered.load(Ordering::Relaxed)
+    }
 }
 
 /// File in a dataset folder recording the settings it is rendered with, so that `resume`
@@ -371,7 +507,12 @@ fn remove(path: &Path, how: impl Fn(&Path) -> std::io::Result<()>) -> Result<()>
 /// Per frame, the people left out of it: those who come within [`PERSON_CLEARANCE_M`] of the
 /// camera anywhere in the frame's shot (the frames of one sequence between two cuts), so that
 /// nobody appears or vanishes between two frames of a shot.
-fn people_left_out(crowd: &Crowd, world: &World, shots: &[Shot], cuts: &[u64]) -> Vec<Vec<bool>> {
+fn people_left_out(
+    crowd: &Crowd,
+    world: &World,
+    shots: &[Planned],
+    cuts: &[u64],
+) -> Vec<Vec<bool>> {
     let mut out = Vec::with_capacity(shots.len());
     let mut start = 0;
     while start < shots.len() {
@@ -394,7 +535,11 @@ fn people_left_out(crowd: &Crowd, world: &World, shots: &[Shot], cuts: &[u64]) -
 }
 
 /// Draws the poses of every sequence: `(shots, gold cuts as frame indices, frame rate)`.
-fn plan_shots(world: &World, cfg: &SynthConfig, rig: &Rig) -> Result<(Vec<Shot>, Vec<u64>, f64)> {
+fn plan_shots(
+    world: &World,
+    cfg: &SynthConfig,
+    rig: &Rig,
+) -> Result<(Vec<Planned>, Vec<u64>, f64)> {
     let mut walk_cfg = WalkConfig::for_rig(rig.clone());
     if let Some(fps) = cfg.fps {
         walk_cfg.fps = fps;
@@ -433,7 +578,7 @@ fn plan_shots(world: &World, cfg: &SynthConfig, rig: &Rig) -> Result<(Vec<Shot>,
             // A new sequence starts somewhere else: a cut in a continuous video of all of them.
             cuts.push(shots.len() as u64);
         }
-        shots.extend(frames.into_iter().map(|frame| Shot { seq, frame }));
+        shots.extend(frames.into_iter().map(|frame| Planned { seq, frame }));
     }
     cuts.sort_unstable();
     cuts.dedup();
@@ -444,43 +589,8 @@ fn seq_name(seq: usize) -> String {
     format!("walk-{seq:02}")
 }
 
-fn write_metadata(
-    cfg: &SynthConfig,
-    out: &Path,
-    world: &World,
-    camera: &Camera,
-    shots: &[Shot],
-    cuts: &[u64],
-    fps: f64,
-) -> Result<()> {
-    let frames: Vec<PoseFrame> = shots
-        .iter()
-        .enumerate()
-        .map(|(i, s)| PoseFrame {
-            name: native::frame_name(i as u64),
-            seq: seq_name(s.seq),
-            t: Some(s.frame.t),
-            pose: s.frame.pose,
-        })
-        .collect();
-    let labels: Vec<Label> = shots
-        .iter()
-        .enumerate()
-        .filter_map(|(i, s)| {
-            let place = s.frame.place.as_ref()?;
-            Some(Label {
-                frame: i as u64,
-                building: format!("B{}", place.building),
-                floor: format!("F{}", place.storey),
-                corridor: place
-                    .corridor
-                    .map_or_else(|| "none".into(), |c| format!("C{c}")),
-                direction: s.frame.direction.map_or("none", |d| d.name()).into(),
-            })
-        })
-        .collect();
-    let seqs: Vec<String> = (0..cfg.sequences).map(seq_name).collect();
-    let splits: Splits = native::split_by_sequence(&seqs, 0.15, 0.15, cfg.seed);
+/// `dataset.toml` of a [`run`].
+fn dataset_info(cfg: &SynthConfig, world: &World, camera: &Camera, fps: f64) -> DatasetInfo {
     let mut settings = BTreeMap::new();
     settings.insert("world".into(), world.name.clone());
     settings.insert("mode".into(), cfg.mode.to_string());
@@ -489,18 +599,12 @@ fn write_metadata(
         "sampler".into(),
         format!("{:?}", cfg.sampler).to_lowercase(),
     );
-    let info = DatasetInfo {
+    DatasetInfo {
         name: format!("{} ({}, {})", world.name, cfg.mode, cfg.variant.name()),
-        dof: match cfg.camera {
-            CameraKind::Forward => 6,
-            CameraKind::Ceiling => 3,
-        },
+        dof: cfg.camera.dof(),
         units: "m".into(),
         frame_rate: fps,
-        mount: match cfg.camera {
-            CameraKind::Forward => Mount::Forward,
-            CameraKind::Ceiling => Mount::Ceiling,
-        },
+        mount: cfg.camera.mount(),
         camera: native::CameraInfo::from_camera(camera),
         generator: Some(Generator {
             name: format!("indoorloc synth {}", env!("CARGO_PKG_VERSION")),
@@ -508,18 +612,54 @@ fn write_metadata(
             source: None,
             settings,
         }),
+    }
+}
+
+/// Writes the metadata of the dataset `shots` were rendered into, `shots` in dataset order:
+/// `poses.csv` (each shot's frame number, sequence, time and pose), `dataset.toml` (`info`),
+/// `splits.toml`, with `labels` a `labels.csv` of the places of the shots that have one (none
+/// when no shot has), and `cuts.csv` with `cuts` (frame numbers of the gold scene cuts).
+/// A `labels.csv` or `cuts.csv` not asked for is removed, so the folder says only what the
+/// shots do.
+pub fn write_metadata(
+    out: &Path,
+    info: &DatasetInfo,
+    shots: &[Shot<'_>],
+    labels: bool,
+    cuts: Option<&[u64]>,
+    splits: &Splits,
+) -> Result<()> {
+    let frames: Vec<PoseFrame> = shots
+        .iter()
+        .map(|s| PoseFrame {
+            name: native::frame_name(s.index),
+            seq: s.seq.to_string(),
+            t: Some(s.frame.t),
+            pose: s.frame.pose,
+        })
+        .collect();
+    let labels: Vec<Label> = if labels {
+        shots.iter().filter_map(label).collect()
+    } else {
+        Vec::new()
     };
-    let cuts_opt = (!cuts.is_empty()).then_some(cuts);
-    let labels_opt = (!labels.is_empty()).then_some(labels.as_slice());
-    native::write_metadata(
-        out,
-        &info,
-        &Trajectory::new(frames),
-        labels_opt,
-        cuts_opt,
-        &splits,
-    )?;
+    let labels = (!labels.is_empty()).then_some(labels.as_slice());
+    native::write_metadata(out, info, &Trajectory::new(frames), labels, cuts, splits)?;
     Ok(())
+}
+
+/// The place of a shot as `labels.csv` names it, if it is in one.
+fn label(shot: &Shot<'_>) -> Option<Label> {
+    let place = shot.frame.place.as_ref()?;
+    Some(Label {
+        frame: shot.index,
+        building: format!("B{}", place.building),
+        floor: format!("F{}", place.storey),
+        corridor: place
+            .corridor
+            .map_or_else(|| "none".into(), |c| format!("C{c}")),
+        direction: shot.frame.direction.map_or("none", |d| d.name()).into(),
+    })
 }
 
 fn write_png(path: &Path, bytes: &[u8]) -> Result<()> {

@@ -8,17 +8,11 @@
 
 use crate::{Context, Result};
 use data::native::{self, DatasetInfo, Generator, Splits};
-use data::{PoseFrame, Trajectory};
-use geom::Mount;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use synth::dataset::{
-    CameraKind, SynthConfig, WorldSource, encode_depth_mm, encode_planes, encode_rgb,
-};
-use synth::render::{RenderMode, RenderOptions, RenderScene, Renderer};
+use synth::dataset::{CameraKind, Export, ExportOptions, Shot, SynthConfig, WorldSource};
+use synth::render::RenderMode;
 use synth::trajectory::{self, PosedFrame, Rig, WalkConfig};
 use synth::variants::Crowd;
 use synth::{PlaceKind, Variant, World};
@@ -361,36 +355,40 @@ pub fn render(plan: &ScenePlan, dir: &Path, progress: &(dyn Fn(usize) + Sync)) -
         return Ok(false);
     }
     let seqs = sequences(plan)?;
-    render_sequences(plan, dir, &seqs, progress)?;
-    write_metadata(plan, dir, &seqs, &camera(plan)?, None)?;
+    write_dataset(plan, dir, &seqs, None, progress)?;
     data::io::write_atomic(&plan_path, |w| w.write_all(plan_text.as_bytes()))
         .with_context(|| format!("cannot write {}", plan_path.display()))?;
     Ok(true)
 }
 
-/// Renders every frame of `seqs` into `dir` (`frames/`, and `depth/` and `planes/` when the
-/// plan asks), numbered in order, in parallel. Frames are grouped by what they are rendered
-/// from: the building under the sequence's variant, with one draw of randomised materials per
-/// chunk of a training walk, and the people of the `people` variant walking the zone.
-fn render_sequences(
+/// (variant, materials seed) -> the frames rendered from that world, each with the number of
+/// its sequence (which says who of the crowd it leaves out).
+type Groups<'a> = BTreeMap<(Variant, Option<u64>), Vec<(usize, Shot<'a>)>>;
+
+/// Renders every frame of `seqs` into `dir` as one native dataset (`frames/`, and `depth/` and
+/// `planes/` when the plan asks), numbered in order, and writes its metadata with the gold
+/// `cuts`. Frames are grouped by what they are rendered from: the building under the
+/// sequence's variant, with one draw of randomised materials per chunk of a training walk, and
+/// the people of the `people` variant walking the zone.
+fn write_dataset(
     plan: &ScenePlan,
     dir: &Path,
     seqs: &[Sequence],
+    cuts: Option<&[u64]>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<()> {
-    let mut subs = vec!["frames"];
-    if plan.depth {
-        subs.extend(["depth", "planes"]);
-    }
-    for sub in subs {
-        let d = dir.join(sub);
-        std::fs::create_dir_all(&d).with_context(|| format!("cannot create {}", d.display()))?;
-    }
     let camera = camera(plan)?;
+    let options = ExportOptions {
+        seed: plan.seed,
+        depth: plan.depth,
+        planes: plan.depth,
+        resume: false,
+    };
+    let export = Export::new(dir, &camera, options, progress)?;
     let train_mode = plan.train_mode()?;
-    // (variant, materials seed) -> the frames rendered from that world.
-    let mut groups: BTreeMap<(Variant, Option<u64>), Vec<Shot>> = BTreeMap::new();
-    let mut index = 0;
+    // The dataset's frames in order, and the same frames by the world they are rendered from.
+    let mut shots = Vec::new();
+    let mut groups = Groups::new();
     for (s, seq) in seqs.iter().enumerate() {
         let mode = if seq.name.starts_with(TEST_SEQ) {
             RenderMode::Textured
@@ -398,21 +396,22 @@ fn render_sequences(
             train_mode
         };
         for (k, frame) in seq.frames.iter().enumerate() {
+            let shot = Shot {
+                index: shots.len() as u64,
+                seq: &seq.name,
+                frame,
+                mode,
+                left_out: &[],
+            };
             groups
                 .entry((seq.variant, seq.materials_of(k)))
                 .or_default()
-                .push(Shot {
-                    index,
-                    seq: s,
-                    frame,
-                    mode,
-                });
-            index += 1;
+                .push((s, shot));
+            shots.push(shot);
         }
     }
-    let counter = AtomicUsize::new(0);
     let mut worlds: BTreeMap<Variant, World> = BTreeMap::new();
-    for ((variant, materials), shots) in groups {
+    for ((variant, materials), group) in groups {
         let mut world = match worlds.entry(variant) {
             std::collections::btree_map::Entry::Occupied(e) => e.get().clone(),
             std::collections::btree_map::Entry::Vacant(e) => {
@@ -428,17 +427,28 @@ fn render_sequences(
         let people = (variant == Variant::People)
             .then(|| people(plan, &mut world, seqs))
             .transpose()?;
-        let scene = RenderScene::new(&world)?;
-        let ctx = RenderContext {
-            plan,
-            dir,
-            scene: &scene,
-            camera: &camera,
-            world: &world,
-            people: people.as_ref(),
-        };
-        render_shots(&ctx, &shots, &counter, progress)?;
+        let group: Vec<Shot> = group
+            .into_iter()
+            .map(|(s, shot)| Shot {
+                left_out: people.as_ref().map_or(&[], |p| &p.left_out[s]),
+                ..shot
+            })
+            .collect();
+        export.render(&world, people.as_ref().map(|p| &p.crowd), &group)?;
     }
+    let names = |prefix: &str| -> Vec<String> {
+        seqs.iter()
+            .filter(|s| s.name.starts_with(prefix))
+            .map(|s| s.name.clone())
+            .collect()
+    };
+    let splits = Splits {
+        train: names("train-"),
+        val: names("val"),
+        test: names(TEST_SEQ),
+    };
+    let info = dataset_info(plan, &camera);
+    synth::dataset::write_metadata(dir, &info, &shots, false, cuts, &splits)?;
     Ok(())
 }
 
@@ -465,75 +475,6 @@ fn people(plan: &ScenePlan, world: &mut World, seqs: &[Sequence]) -> Result<Peop
         })
         .collect();
     Ok(People { crowd, left_out })
-}
-
-/// One frame to render.
-struct Shot<'a> {
-    /// Frame number in the dataset.
-    index: usize,
-    /// Index of its sequence.
-    seq: usize,
-    frame: &'a PosedFrame,
-    mode: RenderMode,
-}
-
-/// What every frame of one group is rendered with.
-struct RenderContext<'a> {
-    plan: &'a ScenePlan,
-    dir: &'a Path,
-    scene: &'a RenderScene,
-    camera: &'a geom::Camera,
-    world: &'a World,
-    people: Option<&'a People>,
-}
-
-/// Renders `shots` into the context's folder, in parallel.
-fn render_shots(
-    ctx: &RenderContext<'_>,
-    shots: &[Shot<'_>],
-    counter: &AtomicUsize,
-    progress: &(dyn Fn(usize) + Sync),
-) -> Result<()> {
-    let plan = ctx.plan;
-    shots
-        .par_iter()
-        .try_for_each_init(Renderer::new, |renderer, shot| -> Result<()> {
-            let opts = RenderOptions {
-                mode: shot.mode,
-                seed: plan
-                    .seed
-                    .wrapping_mul(1_000_003)
-                    .wrapping_add(shot.index as u64),
-                ..RenderOptions::default()
-            };
-            let extra = ctx
-                .people
-                .map(|p| {
-                    p.crowd
-                        .triangles_without(ctx.world, shot.frame.t, &p.left_out[shot.seq])
-                })
-                .unwrap_or_default();
-            let img = renderer.render(ctx.scene, ctx.camera, &shot.frame.pose, &opts, &extra)?;
-            let name = format!("{}.png", native::frame_name(shot.index as u64));
-            let write = |sub: &str, png: Vec<u8>| -> Result<()> {
-                let path = ctx.dir.join(sub).join(&name);
-                data::io::write_atomic(&path, |w| w.write_all(&png))
-                    .with_context(|| format!("cannot write {}", path.display()))
-            };
-            write("frames", encode_rgb(&img.rgb)?)?;
-            if plan.depth {
-                write(
-                    "depth",
-                    encode_depth_mm(&img.depth, plan.width, plan.height)?,
-                )?;
-                write(
-                    "planes",
-                    encode_planes(&img.plane, plan.width, plan.height)?,
-                )?;
-            }
-            progress(counter.fetch_add(1, Ordering::Relaxed) + 1);
-            Ok(())
-        })
 }
 
 /// The same held-out test walk under each of `variants` (sequences `test-<variant>`, all in
@@ -568,8 +509,7 @@ pub fn render_variant_walks(
         .iter()
         .map(|&v| Sequence::new(format!("{TEST_SEQ}-{}", v.name()), v, frames.clone()))
         .collect();
-    render_sequences(&plain, dir, &seqs, progress)?;
-    write_metadata(plan, dir, &seqs, &camera(plan)?, None)?;
+    write_dataset(&plain, dir, &seqs, None, progress)?;
     data::io::write_atomic(&plan_path, |w| w.write_all(key.as_bytes()))
         .with_context(|| format!("cannot write {}", plan_path.display()))?;
     Ok(())
@@ -613,45 +553,14 @@ pub fn render_cut_walk(
         random_lighting: false,
         ..plan.clone()
     };
-    render_sequences(&plain, dir, &seqs, progress)?;
-    let camera = camera(plan)?;
-    write_metadata(plan, dir, &seqs, &camera, Some(&cuts))?;
+    write_dataset(&plain, dir, &seqs, Some(&cuts), progress)?;
     data::io::write_atomic(&plan_path, |w| w.write_all(key.as_bytes()))
         .with_context(|| format!("cannot write {}", plan_path.display()))?;
     Ok(cuts)
 }
 
-/// `dataset.toml`, `poses.csv`, `labels.csv`, `splits.toml` (and `cuts.csv` with `cuts`) of the
-/// rendered sequences.
-fn write_metadata(
-    plan: &ScenePlan,
-    dir: &Path,
-    seqs: &[Sequence],
-    camera: &geom::Camera,
-    cuts: Option<&[u64]>,
-) -> Result<()> {
-    let mut frames = Vec::new();
-    for s in seqs {
-        for f in &s.frames {
-            frames.push(PoseFrame {
-                name: native::frame_name(frames.len() as u64),
-                seq: s.name.clone(),
-                t: Some(f.t),
-                pose: f.pose,
-            });
-        }
-    }
-    let names = |prefix: &str| -> Vec<String> {
-        seqs.iter()
-            .filter(|s| s.name.starts_with(prefix))
-            .map(|s| s.name.clone())
-            .collect()
-    };
-    let splits = Splits {
-        train: names("train-"),
-        val: names("val"),
-        test: names(TEST_SEQ),
-    };
+/// `dataset.toml` of the plan's datasets.
+fn dataset_info(plan: &ScenePlan, camera: &geom::Camera) -> DatasetInfo {
     let mut settings = BTreeMap::new();
     settings.insert(
         "zone".into(),
@@ -664,20 +573,15 @@ fn write_metadata(
     if let Some(fps) = plan.train_fps {
         settings.insert("train_fps".into(), fps.to_string());
     }
-    let ceiling = plan.camera_kind() == CameraKind::Ceiling;
-    let info = DatasetInfo {
+    DatasetInfo {
         name: format!(
             "indoorloc demo: default building, building {} storey {}",
             plan.building, plan.storey
         ),
-        dof: if ceiling { 3 } else { 6 },
+        dof: plan.camera_kind().dof(),
         units: "m".into(),
         frame_rate: WalkConfig::for_rig(rig(plan)).fps,
-        mount: if ceiling {
-            Mount::Ceiling
-        } else {
-            Mount::Forward
-        },
+        mount: plan.camera_kind().mount(),
         camera: native::CameraInfo::from_camera(camera),
         generator: Some(Generator {
             name: format!("indoorloc demo {}", env!("CARGO_PKG_VERSION")),
@@ -685,9 +589,7 @@ fn write_metadata(
             source: None,
             settings,
         }),
-    };
-    native::write_metadata(dir, &info, &Trajectory::new(frames), None, cuts, &splits)?;
-    Ok(())
+    }
 }
 
 /// A photo-like image as a network trained on `mode` renders must see it: unchanged for
