@@ -1,12 +1,14 @@
-//! The live side of indoorloc: frames in, a smooth, gated, cut-aware pose stream with
-//! uncertainty out.
+//! Frames in, poses out: the live pipeline and its file counterpart.
 //!
-//! [`source`] opens what the frames come from (folders, videos, cameras, stdin, datasets),
-//! [`estimator`] turns a frame into a pose measurement (the pose network, ArUco markers),
-//! [`PoseFilter`] fuses measurements over time, and [`Pipeline`] runs them on two threads
-//! joined by a bounded queue that drops stale frames of live sources, measuring every stage
-//! ([`Metrics`]). [`calibrate`] fits what the fused covariance means on a model's validation
-//! walk.
+//! [`source`] opens what live frames come from (folders, videos, cameras, stdin, datasets),
+//! [`estimator`] turns a frame into a pose measurement (the pose network, a sequence model,
+//! retrieval, ArUco markers, a keyframe map), [`PoseFilter`] fuses measurements over time, and
+//! [`Stages`] is what one frame goes through (cut detector, estimators, filter). [`Pipeline`]
+//! runs the stages live, on two threads joined by a bounded queue that drops stale frames of
+//! live sources, measuring every stage ([`Metrics`]); [`Recorded`] runs them over a recording
+//! ([`frames`]: any image, folder, video or posed dataset), frame after frame, with the place
+//! model along the walk. [`calibrate`] fits what the fused covariance means on a model's
+//! validation walk.
 
 pub mod calibrate;
 mod error;
