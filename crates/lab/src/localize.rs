@@ -337,7 +337,7 @@ pub fn run(args: &LocalizeConfig, sink: &mut dyn crate::Output) -> Result<()> {
             gate_floor_m: args.gate_floor,
             ..map::RefineConfig::default()
         };
-        let mut map = MapEstimator::new(map::file::load(path)?, refine);
+        let mut map = MapEstimator::new(map::file::load(path)?, refine).named(path);
         if estimators.is_empty() {
             map = map.alone();
         }

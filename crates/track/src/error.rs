@@ -20,6 +20,16 @@ pub enum TrackError {
     /// A keyframe map could not be read or used.
     #[error(transparent)]
     Map(#[from] map::MapError),
+    /// A keyframe map failed on a frame (a query from another camera, ...): the map named.
+    // The cause is in the message (and not a `source`), so that the live pipeline's one-line
+    // error events carry it too.
+    #[error("{}: {error}", path.display())]
+    MapFile {
+        /// The map file.
+        path: PathBuf,
+        /// What went wrong.
+        error: map::MapError,
+    },
     /// The scene-cut detector.
     #[error(transparent)]
     Cut(#[from] scenecut::CutError),

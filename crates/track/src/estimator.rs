@@ -343,15 +343,14 @@ pub struct MapEstimator {
     map: map::KeyframeMap,
     cfg: map::RefineConfig,
     alone: bool,
+    /// The map file, named in errors.
+    path: Option<std::path::PathBuf>,
 }
 
 impl MapEstimator {
     /// Loads the map file at `path` (errors name it).
     pub fn load(path: &Path) -> Result<MapEstimator> {
-        Ok(MapEstimator::new(
-            map::file::load(path)?,
-            map::RefineConfig::default(),
-        ))
+        Ok(MapEstimator::new(map::file::load(path)?, map::RefineConfig::default()).named(path))
     }
 
     /// A loaded map with refinement settings.
@@ -360,7 +359,14 @@ impl MapEstimator {
             map,
             cfg,
             alone: false,
+            path: None,
         }
+    }
+
+    /// Names the map's file in errors.
+    pub fn named(mut self, path: &Path) -> MapEstimator {
+        self.path = Some(path.to_path_buf());
+        self
     }
 
     /// The map as the only estimator: a frame with no prior gets the map's own answer even
@@ -386,7 +392,16 @@ impl Estimator for MapEstimator {
             pose: p.pose,
             sigma_pos_m: p.stated.map_or_else(|| p.sigma_pos_m(), |s| s.sigma_pos_m),
         });
-        let r = self.map.refine(image, coarse.as_ref(), &self.cfg)?;
+        let r =
+            self.map
+                .refine(image, coarse.as_ref(), &self.cfg)
+                .map_err(|error| match &self.path {
+                    Some(path) => crate::TrackError::MapFile {
+                        path: path.clone(),
+                        error,
+                    },
+                    None => error.into(),
+                })?;
         let note = RefinementNote {
             refined: r.refined,
             inliers: r.inliers,
