@@ -224,14 +224,14 @@ impl<'a> Recorded<'a> {
                 || self.cuts.binary_search(&(frame.index as u64)).is_ok()
                 || last_seq.as_ref().is_some_and(|s| *s != frame.seq);
             last_seq = Some(frame.seq.clone());
+            // Frames without a clock (an image folder) are numbered at the live sources' rate,
+            // so a filter sees time pass as it would live.
+            let t = frame
+                .t
+                .unwrap_or(frame.index as f64 / crate::source::DEFAULT_FPS);
             let processed = self
                 .stages
-                .process(
-                    frame.index as u64,
-                    &image,
-                    frame.t.unwrap_or(0.0),
-                    starts_over,
-                )
+                .process(frame.index as u64, &image, t, starts_over)
                 .map_err(at_frame)?;
             let (place, told) = match &mut self.places {
                 Some(Places::Walk(loc, tracker)) => {
