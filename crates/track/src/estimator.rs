@@ -117,6 +117,15 @@ impl Estimation {
     }
 }
 
+/// The frame as 8-bit RGB: borrowed when it is decoded as such (every live frame), converted
+/// otherwise (a grey or RGBA file).
+pub(crate) fn rgb_of(image: &DynamicImage) -> std::borrow::Cow<'_, image::RgbImage> {
+    match image.as_rgb8() {
+        Some(rgb) => std::borrow::Cow::Borrowed(rgb),
+        None => std::borrow::Cow::Owned(image.to_rgb8()),
+    }
+}
+
 /// The covariance `sigma_pos_m² / 3 · I` (m²).
 pub fn isotropic_cov(sigma_pos_m: f64) -> Matrix3<f64> {
     Matrix3::identity() * (sigma_pos_m * sigma_pos_m / 3.0)
@@ -322,15 +331,8 @@ impl Estimator for MarkerEstimator {
         if self.gray.dimensions() != (image.width(), image.height()) {
             self.gray = GrayImage::new(image.width(), image.height());
         }
-        let converted;
-        let rgb = match image.as_rgb8() {
-            Some(rgb) => rgb,
-            None => {
-                converted = image.to_rgb8();
-                &converted
-            }
-        };
-        imgproc::view::rgb_to_gray(rgb, &mut self.gray)
+        let rgb = rgb_of(image);
+        imgproc::view::rgb_to_gray(&rgb, &mut self.gray)
             .map_err(|e| crate::TrackError::Config(format!("marker view: {e}")))?;
         let found = markers::detect(&self.gray, &self.dict, &self.params);
         Ok(markers::locate(&found, &self.map, &self.camera)

@@ -7,7 +7,7 @@
 //! [`Stages::process`], so a frame gets the same poses whichever way it arrives.
 
 use crate::error::{Result, TrackError};
-use crate::estimator::{Estimation, Estimator};
+use crate::estimator::{Estimation, Estimator, rgb_of};
 use crate::filter::{FilterConfig, Fused, PoseFilter, Update};
 use image::{DynamicImage, RgbImage};
 use nalgebra::Matrix3;
@@ -64,16 +64,6 @@ impl<'a> Stages<'a> {
             cuts: detect_cuts.then(CutWatch::default),
             filter: filter.map(PoseFilter::new),
         }
-    }
-
-    /// Whether there is an estimator.
-    pub fn is_empty(&self) -> bool {
-        self.estimators.is_empty()
-    }
-
-    /// One more estimator after the others.
-    pub fn push(&mut self, estimator: Box<dyn Estimator + Send + 'a>) {
-        self.estimators.push(estimator);
     }
 
     /// Runs frame `index` (seen at `t` seconds) through the stages. `new_scene`: the source
@@ -177,15 +167,8 @@ impl CutWatch {
         let Some(det) = &mut self.detector else {
             return Ok(false);
         };
-        let converted;
-        let rgb = match image.as_rgb8() {
-            Some(rgb) => rgb,
-            None => {
-                converted = image.to_rgb8();
-                &converted
-            }
-        };
-        imgproc::view::resize_rgb(rgb, &mut self.thumb)
+        let rgb = rgb_of(image);
+        imgproc::view::resize_rgb(&rgb, &mut self.thumb)
             .map_err(|e| TrackError::Config(format!("cut thumbnail of frame {index}: {e}")))?;
         let events = det.push(index, self.thumb.as_raw())?;
         Ok(events.iter().any(|e| matches!(e, scenecut::Event::Cut(_))))
