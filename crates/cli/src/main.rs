@@ -57,6 +57,8 @@ enum Command {
     Weights(lab::weights::WeightsConfig),
     /// The keyframe map of a posed RGB-D dataset, for centimetre refinement (`localize --map`).
     Map(lab::map::MapConfig),
+    /// A posed RGB-D scan fused into a textured mesh (GLB and PLY) that `synth --world` renders.
+    Mesh(lab::mesh::MeshConfig),
 }
 
 fn main() -> ExitCode {
@@ -79,6 +81,7 @@ fn main() -> ExitCode {
         Command::Calibrate(args) => lab::calibrate::run(&args, &mut out),
         Command::Weights(args) => lab::weights::run(&args, &mut out),
         Command::Map(args) => lab::map::run(&args, &mut out),
+        Command::Mesh(args) => lab::mesh::run(&args, &mut out),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -36,6 +36,7 @@ pub mod colmap;
 pub mod concat;
 mod csv_table;
 pub mod cuts;
+pub mod depth;
 mod error;
 pub mod formats;
 pub mod frames;

@@ -63,6 +63,9 @@ pub enum LabError {
     /// Keyframe maps and refinement.
     #[error(transparent)]
     Map(#[from] map::MapError),
+    /// The scan fusion failed.
+    #[error(transparent)]
+    Recon(#[from] recon::ReconError),
     /// Markers.
     #[error(transparent)]
     Markers(#[from] markers::MarkersError),

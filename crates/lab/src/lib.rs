@@ -16,6 +16,7 @@ pub mod explain;
 pub mod localize;
 pub mod map;
 pub mod markers;
+pub mod mesh;
 pub mod output;
 pub mod parse;
 pub mod preprocess;

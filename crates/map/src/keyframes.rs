@@ -246,7 +246,7 @@ fn lift_by_depth(
     model: &DepthModel,
 ) -> Result<MappedFeatures> {
     let depth_path = img.depth.as_deref().expect("checked by build");
-    let depth = read_depth(depth_path)?;
+    let depth = read_depth(depth_path).map_err(|e| MapError::Input(e.to_string()))?;
     let pose: &Pose = &img.frame.pose;
     let mut out = MappedFeatures::default();
     for (kp, d) in found.keypoints.iter().zip(&found.descriptors) {
