@@ -4,7 +4,8 @@
 //! on or cannot see without optional features is done here: the GLB container is split with
 //! checked lengths, every accessor's type and byte range is checked before it is read, images
 //! are decoded one by one (so a missing texture is a warning, not a failed import), and
-//! `KHR_lights_punctual` and `KHR_materials_emissive_strength` are read from the raw JSON.
+//! `KHR_lights_punctual`, `KHR_materials_emissive_strength` and `KHR_materials_unlit` are read
+//! from the raw JSON.
 //!
 //! Every mesh primitive reachable from the default scene (else the first scene, else every root
 //! node) is imported with its node's global transform; a transform with a negative determinant
@@ -577,9 +578,11 @@ impl Reader<'_> {
         };
         let pbr = mat.pbr_metallic_roughness();
         let f = pbr.base_color_factor();
-        let strength = key
-            .and_then(|i| self.raw.get("materials")?.get(i))
-            .and_then(|m| m.get("extensions")?.get("KHR_materials_emissive_strength"))
+        let extension = |name: &str| {
+            key.and_then(|i| self.raw.get("materials")?.get(i))
+                .and_then(|m| m.get("extensions")?.get(name))
+        };
+        let strength = extension("KHR_materials_emissive_strength")
             .and_then(|e| e.get("emissiveStrength")?.as_f64())
             .unwrap_or(1.0) as f32;
         let emissive = mat.emissive_factor().iter().fold(0.0f32, |a, &b| a.max(b)) * strength;
@@ -592,6 +595,7 @@ impl Reader<'_> {
             } else {
                 0.0
             },
+            unlit: extension("KHR_materials_unlit").is_some(),
             name,
         };
         let mut set = None;
@@ -1339,6 +1343,61 @@ pub(super) mod tests {
                 .iter()
                 .all(|t| t.normal().dot(&(centre - t.v[0])) > 0.0)
         );
+        Ok(())
+    }
+
+    /// `KHR_materials_unlit` marks a material unlit; a model whose every triangle is unlit gets
+    /// no invented lights (its glowing ceiling would otherwise get one), one with a lit material
+    /// still does.
+    #[test]
+    fn import_gltf_unlit_materials_and_no_invented_lights() -> TestResult {
+        let unlit = r#""extensions": {"KHR_materials_unlit": {}}, "pbrMetallicRoughness""#;
+        let edit = |all: bool| {
+            move |j: String| {
+                let j = j
+                    .replace(
+                        r#""extensions": {"KHR_lights_punctual": {"light": 0}}"#,
+                        r#""extras": {}"#,
+                    )
+                    .replace(
+                        r#"{"name": "floor", "pbrMetallicRoughness""#,
+                        &format!(r#"{{"name": "floor", {unlit}"#),
+                    )
+                    .replace(
+                        r#""extensions": {"KHR_materials_emissive_strength""#,
+                        r#""extensions": {"KHR_materials_unlit": {}, "KHR_materials_emissive_strength""#,
+                    );
+                if all {
+                    j.replace(
+                        r#"{"name": "wall", "pbrMetallicRoughness""#,
+                        &format!(r#"{{"name": "wall", {unlit}"#),
+                    )
+                } else {
+                    j
+                }
+            }
+        };
+        let (_d, path) = edited("unlit.gltf", edit(true))?;
+        let (world, report) = load(&path, &ImportOptions::default())?;
+        assert!(world.materials.iter().all(|m| m.unlit));
+        assert!(world.lights.is_empty(), "{:?}", world.lights);
+        assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+        let (_d, path) = edited("some_unlit.gltf", edit(false))?;
+        let (world, _) = load(&path, &ImportOptions::default())?;
+        let unlit: Vec<(&str, bool)> = world
+            .materials
+            .iter()
+            .map(|m| (m.name.as_str(), m.unlit))
+            .collect();
+        assert_eq!(
+            unlit,
+            [("floor", true), ("ceiling", true), ("wall", false)],
+            "{unlit:?}"
+        );
+        assert!(!world.lights.is_empty());
+        // The room as it is has no unlit material.
+        let (world, _) = load(&fixture("room.gltf"), &ImportOptions::default())?;
+        assert!(world.materials.iter().all(|m| !m.unlit));
         Ok(())
     }
 

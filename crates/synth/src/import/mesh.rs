@@ -372,7 +372,15 @@ pub(super) fn finish(mut soup: Soup, opts: &ImportOptions) -> Result<(World, Imp
     }
 
     world.lights = file_lights(&soup.lights, shift);
-    if world.lights.is_empty() {
+    // A scan shows the light it was photographed in; lamps invented for it would only cost
+    // render time (unlit surfaces ignore them) and give `SomeLightsOff` nothing real to switch.
+    let all_unlit = world.triangles.iter().all(|t| {
+        world
+            .materials
+            .get(usize::from(t.material))
+            .is_some_and(|m| m.unlit)
+    });
+    if world.lights.is_empty() && !all_unlit {
         world.lights = emissive_lights(&world);
         if world.lights.is_empty() {
             world.lights = walk::ceiling_lights(&world, &free);

@@ -17,7 +17,9 @@
 //! - Triangles with materials: the colour (OBJ `Kd`, glTF `baseColorFactor` converted from linear
 //!   to sRGB), an image texture (OBJ `map_Kd`, glTF `baseColorTexture`), emission (OBJ `Ke`,
 //!   glTF `emissiveFactor` × `KHR_materials_emissive_strength`, the brightest channel, clamped to
-//!   0–1), and see-through untextured materials (opacity below 0.6) as [`Pattern::Window`].
+//!   0–1), see-through untextured materials (opacity below 0.6) as [`Pattern::Window`], and glTF
+//!   `KHR_materials_unlit` as [`Material::unlit`] (a scan's photographed colours, shown as they
+//!   are; OBJ has no such material).
 //! - Texture coordinates: textured triangles keep theirs as image coordinates, u to the right
 //!   and v **down** from the top-left corner (glTF's convention; OBJ's upward `vt` is flipped),
 //!   passed through as they are, so repeating textures may go beyond 0–1. Untextured triangles get
@@ -31,7 +33,8 @@
 //!   is a 0.5 m grid of floor points (see "Limits").
 //! - Lights: glTF `KHR_lights_punctual` point and spot lights (spots as points), with intensity
 //!   relative to the file's median light; a model without lights gets one over each emissive
-//!   surface patch, and a model with neither gets lights under its ceilings every 3 m.
+//!   surface patch, and a model with neither gets lights under its ceilings every 3 m, unless
+//!   every triangle is unlit (a scan: its light is in its photographs).
 //!
 //! # Bad files
 //! Problems that make the model unusable are errors ([`SynthError::Model`], naming the file and,
@@ -73,7 +76,7 @@ mod walk;
 
 use crate::world::World;
 #[cfg(doc)]
-use crate::world::{Pattern, Plane, Region};
+use crate::world::{Material, Pattern, Plane, Region};
 use crate::{Result, SynthError};
 use std::path::Path;
 

@@ -15,6 +15,7 @@ fn mat(pattern: Pattern, color: [f32; 3], seed: u64) -> Material {
         pattern,
         seed,
         emissive: 0.0,
+        unlit: false,
     }
 }
 
