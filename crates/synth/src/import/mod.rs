@@ -71,6 +71,8 @@ mod gltf;
 mod mesh;
 mod obj;
 mod planes;
+#[cfg(test)]
+pub(crate) mod test_scan;
 mod texture;
 mod walk;
 
@@ -247,6 +249,28 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<(World, ImportReport)> 
         }
     };
     mesh::finish(soup, opts)
+}
+
+/// The rigid transform `T` from a scanned dataset's pose frame to the world [`load`] makes of
+/// the scan's model, as a scan's glTF records it: `asset.extras.indoorloc_scan.dataset_to_world`,
+/// 16 numbers of a row-major 4x4 matrix (beside `"dataset"`, the dataset's path). A camera pose
+/// `P` of the dataset (camera-to-world in its own frame) is `T.compose(&P)` in the world. It
+/// holds for the default [`ImportOptions`] (metres, Y up), which a scan's GLB is written for.
+///
+/// `Ok(None)` for a model without the record, and for OBJ and other formats, which carry none.
+///
+/// # Errors
+/// [`SynthError::Io`] when the file cannot be read; [`SynthError::Model`] (naming the file)
+/// when it is not glTF, or the record is not 16 numbers or not a rigid transform.
+pub fn scan_frame(path: &Path) -> Result<Option<geom::Pose>> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("gltf" | "glb") => gltf::scan_frame(path),
+        _ => Ok(None),
+    }
 }
 
 /// The conversion from file coordinates to world coordinates (see the module documentation).
