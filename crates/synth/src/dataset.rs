@@ -296,11 +296,11 @@ pub fn run(
     }
     prepare_folder(cfg, out)?;
     let (mut world, warnings) = build_world(cfg)?;
+    check_sampler(cfg, &world)?;
     let crowd = (cfg.variant == Variant::People).then(|| {
         let count = Crowd::suggested_count(&world);
         Crowd::new(&mut world, count, cfg.seed)
     });
-    check_sampler(cfg, &world)?;
     let rig = rig_of(cfg.camera);
     let camera = camera_of(cfg, &rig)?;
     let (planned, cuts, fps) = plan_shots(&world, cfg, &rig)?;
@@ -355,9 +355,7 @@ pub fn camera_of(cfg: &SynthConfig, rig: &Rig) -> Result<Camera> {
     match &cfg.intrinsics {
         Some(cam) => {
             cam.validate()?;
-            let cam = cam.resized(cfg.width, cfg.height);
-            cam.validate()?;
-            Ok(cam)
+            Ok(cam.resized(cfg.width, cfg.height))
         }
         None => trajectory::camera_for(rig, cfg.width, cfg.height, cfg.seed),
     }
@@ -379,9 +377,9 @@ fn check_sampler(cfg: &SynthConfig, world: &World) -> Result<()> {
     if !cfg.sampler.walks() || !(world.walk.nodes.is_empty() || world.walk.edges.is_empty()) {
         return Ok(());
     }
-    let msg = "the model has no walk graph (no walkable floor was found), so it cannot be \
-               walked: sample random poses in it, or poses near a camera path (a scan's own \
-               dataset)";
+    let msg = "the model has no walk graph (no walkable floor was found, or none of its floor \
+               points are joined), so it cannot be walked: sample random poses in it, or poses \
+               near a camera path (a scan's own dataset)";
     Err(match &cfg.world {
         WorldSource::File { path, .. } => SynthError::Model {
             path: path.clone(),

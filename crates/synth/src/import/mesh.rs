@@ -362,7 +362,8 @@ pub(super) fn finish(mut soup: Soup, opts: &ImportOptions) -> Result<(World, Imp
     match free.nodes {
         0 => soup.warn(
             "no walkable floor found (an upward-facing surface with 2 m of headroom): the walk \
-             graph is empty; check the up axis (Y or Z) and the scale",
+             graph is empty; check the up axis (Y or Z) and the scale (a scan with only part of \
+             a floor has none: draw poses near its camera path instead)",
         ),
         _ if !free.covered => soup.warn(
             "no floor has a ceiling above it; the walk graph includes uncovered surfaces such \
