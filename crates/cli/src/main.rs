@@ -31,7 +31,8 @@ enum Command {
     Demo(lab::demo::DemoConfig),
     /// Compare estimated poses with ground truth: error statistics, accuracy, plots.
     Eval(lab::eval::EvalConfig),
-    /// Render a synthetic posed dataset of the built-in building or a model file.
+    /// Render a synthetic posed dataset of the built-in building or a model file (a scan: near
+    /// its own camera path, with --near).
     Synth(lab::synth::SynthCommand),
     /// Write the network's view of images (grey, resize, CLAHE, ...) as PNGs.
     Preprocess(lab::preprocess::PreprocessConfig),

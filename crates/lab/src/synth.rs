@@ -1,12 +1,13 @@
 //! `indoorloc synth`: render a native dataset from the default building or a model file, or a
-//! contact sheet of every render mode and appearance variant (`--preview`).
+//! contact sheet of every render mode and appearance variant (`--preview`). A scan (a GLB fused
+//! from a posed RGB-D dataset) is rendered near its own camera path with `--near DATASET`.
 
 use crate::output::{print_json, print_text};
 use crate::progress::bar;
-use crate::{Context, Result, bail};
+use crate::{Context, Result, bail, ensure};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use synth::dataset::{self, CameraKind, Sampler, SynthConfig, WorldSource};
 use synth::import::{ImportOptions, UpAxis};
 use synth::render::RenderMode;
@@ -30,9 +31,24 @@ pub struct SynthCommand {
     /// Camera: hand-held looking ahead (6-DoF), or a robot's camera looking up (3-DoF).
     #[arg(long, value_enum, default_value_t = Cam::Forward)]
     camera: Cam,
-    /// How poses are drawn: natural walks, walks joined by scene cuts, or random poses.
+    /// How poses are drawn: natural walks, walks joined by scene cuts, or random poses (walks
+    /// need the model's walk graph; a scan without a walkable floor has none).
     #[arg(long, value_enum, default_value_t = Sample::Walk)]
     sampler: Sample,
+    /// Draw poses near the camera path of this posed dataset instead (any layout `train` reads:
+    /// 7-Scenes, TUM, native, ...): each frame takes one of its poses at random, moved by up to
+    /// --near-radius and turned by up to --near-angle; sequences are runs of consecutive poses.
+    /// The poses are placed in the model by the transform a scan's GLB records
+    /// (asset.extras.indoorloc_scan.dataset_to_world; a model without it is refused), and the
+    /// dataset's camera, scaled to --size, replaces the random intrinsics.
+    #[arg(long, value_name = "DATASET", conflicts_with = "sampler")]
+    near: Option<PathBuf>,
+    /// With --near: largest distance of a drawn camera from the dataset's, metres.
+    #[arg(long, value_name = "M", default_value_t = 0.3)]
+    near_radius: f64,
+    /// With --near: largest rotation of a drawn camera from the dataset's, degrees.
+    #[arg(long, value_name = "DEG", default_value_t = 10.0)]
+    near_angle: f64,
     /// Total frames.
     #[arg(long, default_value_t = 600)]
     frames: usize,
@@ -194,6 +210,20 @@ pub fn run(args: &SynthCommand, sink: &mut dyn crate::Output) -> Result<()> {
 }
 
 fn config(args: &SynthCommand) -> Result<SynthConfig> {
+    let (sampler, intrinsics) = match &args.near {
+        Some(dataset) => {
+            let (sampler, camera) = near(args, dataset)?;
+            (sampler, Some(camera))
+        }
+        None => (
+            match args.sampler {
+                Sample::Walk => Sampler::Walk,
+                Sample::Cuts => Sampler::WalkWithCuts,
+                Sample::Random => Sampler::Random,
+            },
+            None,
+        ),
+    };
     let world = if args.world == "default" {
         WorldSource::Default {
             seed: args.world_seed.unwrap_or(args.seed),
@@ -217,11 +247,7 @@ fn config(args: &SynthCommand) -> Result<SynthConfig> {
             Cam::Forward => CameraKind::Forward,
             Cam::Ceiling => CameraKind::Ceiling,
         },
-        sampler: match args.sampler {
-            Sample::Walk => Sampler::Walk,
-            Sample::Cuts => Sampler::WalkWithCuts,
-            Sample::Random => Sampler::Random,
-        },
+        sampler,
         frames: args.frames,
         sequences: args.sequences,
         fps: args.fps,
@@ -231,9 +257,145 @@ fn config(args: &SynthCommand) -> Result<SynthConfig> {
         variant: args.variant,
         seed: args.seed,
         walk_seed: None,
+        intrinsics,
         depth: !args.no_depth,
         planes: !args.no_planes,
         resume: args.resume,
         force: args.force,
     })
+}
+
+/// The `--near` sampler and camera: the dataset's poses placed in the model by the transform
+/// its GLB records, and the dataset's camera. The transform holds for the model as it is
+/// written (metres, Y up), so other --scale or --up are refused.
+fn near(args: &SynthCommand, dataset: &Path) -> Result<(Sampler, geom::Camera)> {
+    ensure!(
+        args.world != "default",
+        "--near places a dataset's camera path in a scan: give the scan's model with --world"
+    );
+    let model = Path::new(&args.world);
+    ensure!(
+        args.scale == 1.0 && matches!(args.up, Up::Y),
+        "{}: --near places the dataset's poses by the transform the model records, which \
+         holds for the model as written; leave --scale and --up at their defaults",
+        model.display()
+    );
+    let Some(to_world) = synth::import::scan_frame(model)? else {
+        bail!(
+            "{}: the model records no asset.extras.indoorloc_scan.dataset_to_world, so the \
+             poses of --near {} cannot be placed in it (a scan's GLB records it)",
+            model.display(),
+            dataset.display()
+        );
+    };
+    let ds = data::posed::open(dataset)
+        .with_context(|| format!("reading the --near dataset {}", dataset.display()))?;
+    let camera = ds.require_camera()?;
+    let poses = ds
+        .images
+        .iter()
+        .map(|i| to_world.compose(&i.frame.pose))
+        .collect();
+    let sampler = Sampler::Near {
+        poses,
+        radius_m: args.near_radius,
+        angle_deg: args.near_angle,
+    };
+    Ok((sampler, camera))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+    use data::{PoseFrame, Trajectory};
+    use geom::Pose;
+
+    #[derive(Parser)]
+    struct Wrap {
+        #[command(flatten)]
+        synth: SynthCommand,
+    }
+
+    fn args(extra: &[&str]) -> std::result::Result<SynthCommand, clap::Error> {
+        let mut argv = vec!["synth", "--out", "o"];
+        argv.extend_from_slice(extra);
+        Ok(Wrap::try_parse_from(argv)?.synth)
+    }
+
+    /// `--near`: the dataset's poses placed in the model by the transform it records, its
+    /// camera as the intrinsics; refused without a model, without the record, with another
+    /// scale, and beside `--sampler`.
+    #[test]
+    fn near_places_the_dataset_path_by_the_model_record()
+    -> std::result::Result<(), Box<dyn std::error::Error>> {
+        let dir = tempfile::tempdir()?;
+        let seq = dir.path().join("kitchen");
+        let frames = (0..3)
+            .map(|i| {
+                let pose =
+                    Pose::from_euler_ypr(0.1 * f64::from(i), 0.0, 0.0, [f64::from(i), 0.0, 1.0])?;
+                Ok(PoseFrame {
+                    name: format!("frame-{i:06}"),
+                    seq: "seq-01".into(),
+                    t: None,
+                    pose,
+                })
+            })
+            .collect::<geom::Result<Vec<_>>>()?;
+        data::sevenscenes::write(&Trajectory::new(frames.clone()), &seq)?;
+        for f in &frames {
+            let png = seq.join("seq-01").join(format!("{}.color.png", f.name));
+            image::RgbImage::new(8, 6).save(png)?;
+        }
+        // Only the model's JSON is read for the record.
+        let to_world = Pose::from_euler_ypr(0.5, 0.0, 0.0, [1.0, 2.0, 3.0])?;
+        let m = to_world.to_matrix4();
+        let numbers: Vec<String> = (0..16)
+            .map(|i| format!("{:?}", m[(i / 4, i % 4)]))
+            .collect();
+        let model = dir.path().join("scan.gltf");
+        std::fs::write(
+            &model,
+            format!(
+                r#"{{"asset": {{"version": "2.0", "extras": {{"indoorloc_scan":
+                    {{"dataset_to_world": [{}]}}}}}}}}"#,
+                numbers.join(", ")
+            ),
+        )?;
+        let (model_arg, seq_arg) = (model.to_string_lossy(), seq.to_string_lossy());
+        let near = ["--world", &model_arg, "--near", &seq_arg];
+        let cfg = config(&args(&[&near[..], &["--near-radius", "0.2"]].concat())?)?;
+        let Sampler::Near {
+            poses,
+            radius_m,
+            angle_deg,
+        } = &cfg.sampler
+        else {
+            return Err("not the near sampler".into());
+        };
+        assert_eq!((*radius_m, *angle_deg), (0.2, 10.0));
+        assert_eq!(poses.len(), 3);
+        for (p, f) in poses.iter().zip(&frames) {
+            let want = to_world.compose(&f.pose);
+            assert!((p.translation - want.translation).norm() < 1e-9);
+            assert!(p.rotation.angle_to(&want.rotation) < 1e-9);
+        }
+        assert_eq!(cfg.intrinsics, Some(data::sevenscenes::rgb_camera()));
+
+        let err = |extra: &[&str]| -> std::result::Result<String, Box<dyn std::error::Error>> {
+            Ok(config(&args(extra)?).err().ok_or("accepted")?.to_string())
+        };
+        assert!(err(&["--near", &seq_arg])?.contains("--world"));
+        assert!(err(&[&near[..], &["--scale", "0.01"]].concat())?.contains("--scale"));
+        let bare = dir.path().join("bare.gltf");
+        std::fs::write(&bare, r#"{"asset": {"version": "2.0"}}"#)?;
+        let msg = err(&["--world", &bare.to_string_lossy(), "--near", &seq_arg])?;
+        assert!(
+            msg.contains("bare.gltf") && msg.contains("dataset_to_world"),
+            "{msg}"
+        );
+        assert!(args(&[&near[..], &["--sampler", "random"]].concat()).is_err());
+        Ok(())
+    }
 }

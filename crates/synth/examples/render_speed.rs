@@ -318,6 +318,7 @@ fn office() -> World {
                 pattern,
                 seed,
                 emissive,
+                unlit: false,
             })
         };
     let wall = mat(&mut w, "wall", [0.85, 0.83, 0.78], Pattern::Plain, 1, 0.0);

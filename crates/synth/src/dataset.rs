@@ -16,7 +16,7 @@ use crate::variants::{self, Crowd};
 use crate::world::{Variant, World};
 use data::native::{self, DatasetInfo, Generator, Label, Splits};
 use data::{PoseFrame, Trajectory};
-use geom::{Camera, Mount};
+use geom::{Camera, Mount, Pose};
 use rayon::prelude::*;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -45,7 +45,7 @@ pub enum WorldSource {
 }
 
 /// How camera poses are drawn.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, PartialEq, Default)]
 pub enum Sampler {
     /// Natural walks along the walk graph, one per sequence.
     #[default]
@@ -54,6 +54,69 @@ pub enum Sampler {
     WalkWithCuts,
     /// Uniform random poses in free space.
     Random,
+    /// Random poses near given camera poses ([`trajectory::near_poses`]): for a scan, whose
+    /// free space is known only along its own camera's path. The poses are cut into
+    /// `sequences` runs of consecutive poses and sequence `k` draws near run `k` alone, so a
+    /// split by sequence is a split along the path. Needs no walk graph.
+    Near {
+        /// Camera-to-world poses in the world frame, in the order of their path.
+        poses: Vec<Pose>,
+        /// Largest distance of a drawn camera centre from its pose's, metres (0.3 on the
+        /// command line).
+        radius_m: f64,
+        /// Largest rotation of a drawn camera from its pose, degrees (10 on the command line).
+        angle_deg: f64,
+    },
+}
+
+impl Sampler {
+    /// The name `dataset.toml` records.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Sampler::Walk => "walk",
+            Sampler::WalkWithCuts => "walkwithcuts",
+            Sampler::Random => "random",
+            Sampler::Near { .. } => "near",
+        }
+    }
+
+    /// Whether it walks the walk graph.
+    fn walks(&self) -> bool {
+        matches!(self, Sampler::Walk | Sampler::WalkWithCuts)
+    }
+}
+
+/// Written by hand so that [`SETTINGS_FILE`] (the config's `Debug`) names a path of thousands
+/// of poses by its length and a hash of their bits, not by every number.
+impl std::fmt::Debug for Sampler {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Sampler::Walk => f.write_str("Walk"),
+            Sampler::WalkWithCuts => f.write_str("WalkWithCuts"),
+            Sampler::Random => f.write_str("Random"),
+            Sampler::Near {
+                poses,
+                radius_m,
+                angle_deg,
+            } => {
+                let bits = poses.iter().flat_map(|p| {
+                    let (q, t) = (p.rotation.quaternion().coords, p.translation);
+                    [q.x, q.y, q.z, q.w, t.x, t.y, t.z]
+                });
+                let hash = bits.fold(0xcbf2_9ce4_8422_2325u64, |h, x| {
+                    (h ^ x.to_bits()).wrapping_mul(0x0100_0000_01b3)
+                });
+                f.debug_struct("Near")
+                    .field(
+                        "poses",
+                        &format_args!("{} poses, FNV-1a {hash:016x}", poses.len()),
+                    )
+                    .field("radius_m", radius_m)
+                    .field("angle_deg", angle_deg)
+                    .finish()
+            }
+        }
+    }
 }
 
 /// Camera mounting of the sequences.
@@ -113,6 +176,10 @@ pub struct SynthConfig {
     pub seed: u64,
     /// Seed of the trajectories alone (default: `seed`): other walks seen by the same camera.
     pub walk_seed: Option<u64>,
+    /// The camera, in place of one drawn from the seed ([`trajectory::camera_for`]): resized to
+    /// `width` x `height` ([`Camera::resized`]), so a scan is seen through the lens of the
+    /// dataset it was made from at any output size.
+    pub intrinsics: Option<Camera>,
     /// Write `depth/` (16-bit millimetres).
     pub depth: bool,
     /// Write `planes/` (8-bit dominant-plane ids).
@@ -140,6 +207,7 @@ impl Default for SynthConfig {
             variant: Variant::Normal,
             seed: 1,
             walk_seed: None,
+            intrinsics: None,
             depth: true,
             planes: true,
             resume: false,
@@ -228,12 +296,13 @@ pub fn run(
     }
     prepare_folder(cfg, out)?;
     let (mut world, warnings) = build_world(cfg)?;
+    check_sampler(cfg, &world)?;
     let crowd = (cfg.variant == Variant::People).then(|| {
         let count = Crowd::suggested_count(&world);
         Crowd::new(&mut world, count, cfg.seed)
     });
     let rig = rig_of(cfg.camera);
-    let camera = trajectory::camera_for(&rig, cfg.width, cfg.height, cfg.seed)?;
+    let camera = camera_of(cfg, &rig)?;
     let (planned, cuts, fps) = plan_shots(&world, cfg, &rig)?;
     let left_out = crowd
         .as_ref()
@@ -277,6 +346,46 @@ pub fn run(
         rendered: export.rendered(),
         render_seconds,
         warnings,
+    })
+}
+
+/// The camera of `cfg`'s frames: its [`SynthConfig::intrinsics`] at the output size, else one
+/// drawn for `rig` from the seed.
+pub fn camera_of(cfg: &SynthConfig, rig: &Rig) -> Result<Camera> {
+    match &cfg.intrinsics {
+        Some(cam) => {
+            cam.validate()?;
+            Ok(cam.resized(cfg.width, cfg.height))
+        }
+        None => trajectory::camera_for(rig, cfg.width, cfg.height, cfg.seed),
+    }
+}
+
+/// Refuses a walking sampler on a model without a walk graph (a scan with no walkable floor) with
+/// an error naming the file and what works instead, rather than the walk's own words; and a
+/// path too short to cut into the sequences asked for.
+fn check_sampler(cfg: &SynthConfig, world: &World) -> Result<()> {
+    if let Sampler::Near { poses, .. } = &cfg.sampler
+        && poses.len() < cfg.sequences
+    {
+        return Err(SynthError::Config(format!(
+            "{} poses to draw near cannot be cut into {} sequences",
+            poses.len(),
+            cfg.sequences
+        )));
+    }
+    if !cfg.sampler.walks() || !(world.walk.nodes.is_empty() || world.walk.edges.is_empty()) {
+        return Ok(());
+    }
+    let msg = "the model has no walk graph (no walkable floor was found, or none of its floor \
+               points are joined), so it cannot be walked: sample random poses in it, or poses \
+               near a camera path (a scan's own dataset)";
+    Err(match &cfg.world {
+        WorldSource::File { path, .. } => SynthError::Model {
+            path: path.clone(),
+            msg: msg.into(),
+        },
+        WorldSource::Default { .. } => SynthError::Config(msg.into()),
     })
 }
 
@@ -554,9 +663,19 @@ fn plan_shots(
             .unwrap_or(cfg.seed)
             .wrapping_mul(7919)
             .wrapping_add(seq as u64);
-        let frames = match cfg.sampler {
+        let frames = match &cfg.sampler {
             Sampler::Walk => trajectory::walk(world, &walk_cfg, n, seed)?,
             Sampler::Random => trajectory::random_poses(world, rig, n, seed)?,
+            Sampler::Near {
+                poses,
+                radius_m,
+                angle_deg,
+            } => {
+                // Run `seq` of `sequences` near-equal runs of consecutive poses.
+                let run = |k: usize| k * poses.len() / cfg.sequences;
+                let near = poses.get(run(seq)..run(seq + 1)).unwrap_or_default();
+                trajectory::near_poses(world, near, n, *radius_m, *angle_deg, seed)?
+            }
             Sampler::WalkWithCuts => {
                 let segments = (n / 40).clamp(2, 8);
                 // Segment lengths vary; the shortest draw still covers n frames in total.
@@ -595,10 +714,7 @@ fn dataset_info(cfg: &SynthConfig, world: &World, camera: &Camera, fps: f64) -> 
     settings.insert("world".into(), world.name.clone());
     settings.insert("mode".into(), cfg.mode.to_string());
     settings.insert("variant".into(), cfg.variant.name().into());
-    settings.insert(
-        "sampler".into(),
-        format!("{:?}", cfg.sampler).to_lowercase(),
-    );
+    settings.insert("sampler".into(), cfg.sampler.name().into());
     DatasetInfo {
         name: format!("{} ({}, {})", world.name, cfg.mode, cfg.variant.name()),
         dof: cfg.camera.dof(),
@@ -792,6 +908,130 @@ fn copy(from: &Path, to: &Path) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    type TestResult = std::result::Result<(), Box<dyn std::error::Error>>;
+
+    /// A scan (no walk graph) rendered near its own camera path: the dataset's poses mapped into
+    /// the world by the GLB's record, every drawn pose within the spread of its sequence's run
+    /// of the path, the dataset's camera at the output size, the photographed colours on
+    /// screen. Walking it is an error naming the file; random poses work.
+    #[test]
+    fn synth_renders_a_scan_near_its_own_camera_path() -> TestResult {
+        use crate::import::{scan_frame, test_scan};
+        let dir = tempfile::tempdir()?;
+        // The dataset's frame is the world turned and shifted.
+        let to_world = Pose::from_euler_ypr(0.4, 0.1, -0.05, [0.5, -1.0, 0.2])?;
+        let model = test_scan::write(
+            &dir.path().join("kitchen.glb"),
+            Some(&test_scan::extras(&to_world)),
+            true,
+        )?;
+        // In the world: level cameras 1 m from the back wall (y = 2), facing it, away from the
+        // atlas's seam at x = 1.5 m.
+        let path: Vec<Pose> = [0.8, 0.9, 2.1, 2.2, 0.85, 2.15]
+            .iter()
+            .map(|&x| {
+                geom::Pose3 {
+                    x,
+                    y: 1.0,
+                    heading: std::f64::consts::FRAC_PI_2,
+                }
+                .to_pose(Mount::Forward, 1.2)
+            })
+            .collect();
+        let recorded: Vec<Pose> = path.iter().map(|w| to_world.inverse().compose(w)).collect();
+        let to_world = scan_frame(&model)?.ok_or("no record")?;
+        let poses: Vec<Pose> = recorded.iter().map(|d| to_world.compose(d)).collect();
+        let lens = Camera::new(640, 480, 585.0, 585.0, 320.0, 240.0, Default::default())?;
+        let cfg = SynthConfig {
+            world: WorldSource::File {
+                path: model.clone(),
+                options: ImportOptions::default(),
+            },
+            sampler: Sampler::Near {
+                poses,
+                radius_m: 0.3,
+                angle_deg: 10.0,
+            },
+            frames: 12,
+            sequences: 3,
+            width: 64,
+            height: 48,
+            intrinsics: Some(lens),
+            ..SynthConfig::default()
+        };
+        let out = dir.path().join("near");
+        let summary = run(&cfg, &out, &|_| {})?;
+        assert_eq!(summary.frames, 12);
+        assert!(
+            summary
+                .warnings
+                .iter()
+                .any(|w| w.contains("no walkable floor"))
+        );
+        let ds = native::NativeDataset::open(&out)?;
+        assert_eq!(ds.info.camera.to_camera()?, lens.resized(64, 48));
+        assert_eq!(
+            ds.info
+                .generator
+                .as_ref()
+                .map(|g| g.settings["sampler"].as_str()),
+            Some("near")
+        );
+        let seqs = ds.sequences();
+        for (i, f) in ds.trajectory.frames.iter().enumerate() {
+            // Sequence k draws near run k: path[2k..2k + 2].
+            let k = seqs.iter().position(|s| *s == f.seq).ok_or("sequence")?;
+            let d = path[2 * k..2 * k + 2]
+                .iter()
+                .map(|p| (p.translation - f.pose.translation).norm())
+                .fold(f64::INFINITY, f64::min);
+            assert!(d <= 0.3 + 1e-6, "frame {i}: {d} m from its run");
+            let frame = image::open(ds.frame_path(i as u64))?.to_rgb8();
+            let centre = frame.get_pixel(32, 24).0;
+            assert!(
+                test_scan::ATLAS
+                    .iter()
+                    .any(|c| (0..3).all(|j| centre[j].abs_diff(c[j]) <= 12)),
+                "frame {i}: {centre:?}"
+            );
+        }
+        let settings = std::fs::read_to_string(out.join(SETTINGS_FILE))?;
+        assert!(settings.contains("6 poses, FNV-1a"), "{settings}");
+
+        let walk = SynthConfig {
+            sampler: Sampler::Walk,
+            force: true,
+            ..cfg.clone()
+        };
+        let msg = run(&walk, &out, &|_| {})
+            .err()
+            .ok_or("walked a scan")?
+            .to_string();
+        assert!(
+            msg.contains("kitchen.glb") && msg.contains("no walk graph"),
+            "{msg}"
+        );
+        let random = SynthConfig {
+            sampler: Sampler::Random,
+            frames: 2,
+            sequences: 1,
+            force: true,
+            ..cfg.clone()
+        };
+        assert_eq!(run(&random, &out, &|_| {})?.frames, 2);
+        let short = SynthConfig {
+            sequences: 7,
+            force: true,
+            ..cfg
+        };
+        let msg = run(&short, &out, &|_| {})
+            .err()
+            .ok_or("cut 6 poses in 7")?
+            .to_string();
+        assert!(msg.contains("7 sequences"), "{msg}");
+        Ok(())
+    }
 
     #[test]
     fn depth_pngs_read_back_in_millimetres() {

@@ -4,7 +4,7 @@
 //! [`render`] gives the pictures as plain data, arranged in rows; the caller draws the sheet
 //! (the command line with `report::contact_sheet`), so that `synth` needs no plotting.
 
-use crate::dataset::{SynthConfig, build_world, rig_of};
+use crate::dataset::{Sampler, SynthConfig, build_world, camera_of, rig_of};
 use crate::error::{Result, SynthError};
 use crate::render::{RenderMode, RenderOptions, RenderScene, Renderer};
 use crate::trajectory::{self, WalkConfig};
@@ -41,18 +41,27 @@ impl Preview {
     }
 }
 
-/// Renders the preview: one row per variant, one column per render mode.
+/// Renders the preview: one row per variant, one column per render mode. The pose is a walk's
+/// [`PREVIEW_FRAME`]th frame, or with [`Sampler::Near`] the path's first pose as it is (a scan
+/// seen exactly as its own camera saw it).
 pub fn render(cfg: &SynthConfig) -> Result<Preview> {
     let rig = rig_of(cfg.camera);
-    let camera = trajectory::camera_for(&rig, cfg.width, cfg.height, cfg.seed)?;
+    let camera = camera_of(cfg, &rig)?;
     let normal = SynthConfig {
         variant: Variant::Normal,
         ..cfg.clone()
     };
     let (world, _) = build_world(&normal)?;
-    let walk_cfg = WalkConfig::for_rig(rig);
-    let walk = trajectory::walk(&world, &walk_cfg, PREVIEW_FRAME + 1, cfg.seed)?;
-    let shot = walk
+    let shot = match &cfg.sampler {
+        Sampler::Near { poses, .. } => {
+            trajectory::near_poses(&world, poses.get(..1).unwrap_or_default(), 1, 0.0, 0.0, 0)?
+        }
+        _ => {
+            let walk_cfg = WalkConfig::for_rig(rig);
+            trajectory::walk(&world, &walk_cfg, PREVIEW_FRAME + 1, cfg.seed)?
+        }
+    };
+    let shot = shot
         .last()
         .ok_or_else(|| SynthError::Config("the walk for the preview is empty".into()))?
         .clone();

@@ -97,6 +97,11 @@ pub struct Material {
     pub seed: u64,
     /// Light the surface gives off by itself, 0 (none) to 1 (a lit panel).
     pub emissive: f32,
+    /// Shown as it is, without shading (glTF `KHR_materials_unlit`): a scan's texture is a
+    /// photograph with the room's light already in it, and lighting it again would darken
+    /// and double its shadows. Such a surface ignores lamps, daylight and its own `emissive`;
+    /// only the atmosphere's ambient level scales it (see [`Atmosphere::DEFAULT_AMBIENT`]).
+    pub unlit: bool,
 }
 
 impl Material {
@@ -108,6 +113,7 @@ impl Material {
             pattern: Pattern::Plain,
             seed: 0,
             emissive: 0.0,
+            unlit: false,
         }
     }
 }
@@ -256,10 +262,17 @@ pub struct Atmosphere {
     pub haze_color: [f32; 3],
 }
 
+impl Atmosphere {
+    /// The ambient level of the default atmosphere. An unlit surface ([`Material::unlit`])
+    /// shows its colour as it is at this level, and in proportion to `ambient` otherwise, so
+    /// that variants which dim the air (evening, disaster) dim a scan's photographed light too.
+    pub const DEFAULT_AMBIENT: f32 = 0.25;
+}
+
 impl Default for Atmosphere {
     fn default() -> Self {
         Self {
-            ambient: 0.25,
+            ambient: Self::DEFAULT_AMBIENT,
             daylight: 0.6,
             haze: 0.0,
             haze_color: [0.6, 0.6, 0.6],

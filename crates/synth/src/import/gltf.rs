@@ -4,7 +4,8 @@
 //! on or cannot see without optional features is done here: the GLB container is split with
 //! checked lengths, every accessor's type and byte range is checked before it is read, images
 //! are decoded one by one (so a missing texture is a warning, not a failed import), and
-//! `KHR_lights_punctual` and `KHR_materials_emissive_strength` are read from the raw JSON.
+//! `KHR_lights_punctual`, `KHR_materials_emissive_strength` and `KHR_materials_unlit` are read
+//! from the raw JSON.
 //!
 //! Every mesh primitive reachable from the default scene (else the first scene, else every root
 //! node) is imported with its node's global transform; a transform with a negative determinant
@@ -16,6 +17,7 @@ use super::{Frame, model_error};
 use crate::world::{Material, MaterialId, Pattern};
 use crate::{Result, SynthError};
 use ::gltf as gl;
+use geom::Pose;
 use gl::accessor::{DataType, Dimensions};
 use gl::json::Value;
 use gl::mesh::Mode;
@@ -142,6 +144,43 @@ fn split_glb(bytes: &[u8]) -> std::result::Result<(&[u8], Option<&[u8]>), String
         at = end;
     }
     Ok((json.ok_or("GLB file without a JSON chunk")?, bin))
+}
+
+/// The `asset.extras.indoorloc_scan.dataset_to_world` record of a `.gltf` or `.glb` file (see
+/// [`super::scan_frame`]); only the JSON is read, not the buffers.
+pub(super) fn scan_frame(path: &Path) -> Result<Option<Pose>> {
+    let bytes = std::fs::read(path).map_err(|source| SynthError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let fail = |msg: String| model_error(path, msg);
+    let json = if bytes.starts_with(b"glTF") {
+        split_glb(&bytes).map_err(fail)?.0
+    } else {
+        &bytes
+    };
+    let raw: Value = gl::json::deserialize::from_slice(trim_padding(json))
+        .map_err(|e| fail(format!("not valid glTF JSON: {e}")))?;
+    let Some(scan) = raw
+        .get("asset")
+        .and_then(|a| a.get("extras"))
+        .and_then(|e| e.get("indoorloc_scan"))
+    else {
+        return Ok(None);
+    };
+    const WHAT: &str = "asset.extras.indoorloc_scan.dataset_to_world";
+    let numbers: Option<Vec<f64>> = scan
+        .get("dataset_to_world")
+        .and_then(Value::as_array)
+        .and_then(|a| a.iter().map(Value::as_f64).collect());
+    let matrix: [f64; 16] = numbers.and_then(|v| v.try_into().ok()).ok_or_else(|| {
+        fail(format!(
+            "{WHAT} must be 16 numbers (a row-major 4x4 matrix)"
+        ))
+    })?;
+    Pose::from_row_major(&matrix)
+        .map(Some)
+        .map_err(|e| fail(format!("{WHAT} is not a rigid transform: {e}")))
 }
 
 /// JSON without the trailing spaces or NUL bytes that pad GLB chunks.
@@ -577,9 +616,11 @@ impl Reader<'_> {
         };
         let pbr = mat.pbr_metallic_roughness();
         let f = pbr.base_color_factor();
-        let strength = key
-            .and_then(|i| self.raw.get("materials")?.get(i))
-            .and_then(|m| m.get("extensions")?.get("KHR_materials_emissive_strength"))
+        let extension = |name: &str| {
+            key.and_then(|i| self.raw.get("materials")?.get(i))
+                .and_then(|m| m.get("extensions")?.get(name))
+        };
+        let strength = extension("KHR_materials_emissive_strength")
             .and_then(|e| e.get("emissiveStrength")?.as_f64())
             .unwrap_or(1.0) as f32;
         let emissive = mat.emissive_factor().iter().fold(0.0f32, |a, &b| a.max(b)) * strength;
@@ -592,6 +633,7 @@ impl Reader<'_> {
             } else {
                 0.0
             },
+            unlit: extension("KHR_materials_unlit").is_some(),
             name,
         };
         let mut set = None;
@@ -1339,6 +1381,137 @@ pub(super) mod tests {
                 .iter()
                 .all(|t| t.normal().dot(&(centre - t.v[0])) > 0.0)
         );
+        Ok(())
+    }
+
+    /// `KHR_materials_unlit` marks a material unlit; a model whose every triangle is unlit gets
+    /// no invented lights (its glowing ceiling would otherwise get one), one with a lit material
+    /// still does.
+    #[test]
+    fn import_gltf_unlit_materials_and_no_invented_lights() -> TestResult {
+        let unlit = r#""extensions": {"KHR_materials_unlit": {}}, "pbrMetallicRoughness""#;
+        let edit = |all: bool| {
+            move |j: String| {
+                let j = j
+                    .replace(
+                        r#""extensions": {"KHR_lights_punctual": {"light": 0}}"#,
+                        r#""extras": {}"#,
+                    )
+                    .replace(
+                        r#"{"name": "floor", "pbrMetallicRoughness""#,
+                        &format!(r#"{{"name": "floor", {unlit}"#),
+                    )
+                    .replace(
+                        r#""extensions": {"KHR_materials_emissive_strength""#,
+                        r#""extensions": {"KHR_materials_unlit": {}, "KHR_materials_emissive_strength""#,
+                    );
+                if all {
+                    j.replace(
+                        r#"{"name": "wall", "pbrMetallicRoughness""#,
+                        &format!(r#"{{"name": "wall", {unlit}"#),
+                    )
+                } else {
+                    j
+                }
+            }
+        };
+        let (_d, path) = edited("unlit.gltf", edit(true))?;
+        let (world, report) = load(&path, &ImportOptions::default())?;
+        assert!(world.materials.iter().all(|m| m.unlit));
+        assert!(world.lights.is_empty(), "{:?}", world.lights);
+        assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+        let (_d, path) = edited("some_unlit.gltf", edit(false))?;
+        let (world, _) = load(&path, &ImportOptions::default())?;
+        let unlit: Vec<(&str, bool)> = world
+            .materials
+            .iter()
+            .map(|m| (m.name.as_str(), m.unlit))
+            .collect();
+        assert_eq!(
+            unlit,
+            [("floor", true), ("ceiling", true), ("wall", false)],
+            "{unlit:?}"
+        );
+        assert!(!world.lights.is_empty());
+        // The room as it is has no unlit material.
+        let (world, _) = load(&fixture("room.gltf"), &ImportOptions::default())?;
+        assert!(world.materials.iter().all(|m| !m.unlit));
+        Ok(())
+    }
+
+    /// A scan with part of a floor and no ceiling imports, with a warning and an empty walk
+    /// graph, one region over its box and no lights.
+    #[test]
+    fn import_scan_without_walkable_floor_is_a_warning() -> TestResult {
+        use crate::import::test_scan;
+        let dir = tempfile::tempdir()?;
+        let path = test_scan::write(&dir.path().join("kitchen.glb"), None, true)?;
+        let (world, report) = load(&path, &ImportOptions::default())?;
+        let w = report.warnings.join("\n");
+        assert!(
+            w.contains("kitchen.glb") && w.contains("no walkable floor"),
+            "{w}"
+        );
+        assert!(world.walk.nodes.is_empty());
+        assert!(world.lights.is_empty());
+        assert_eq!(world.regions.len(), 1);
+        assert_eq!(world.triangles.len(), 6);
+        assert!(world.materials.iter().all(|m| m.unlit));
+        // The back wall (glTF z = -2) lies at world y = 2, facing -y.
+        assert!(
+            world
+                .triangles
+                .iter()
+                .any(|t| { t.v.iter().all(|p| (p.y - 2.0).abs() < 1e-6) && t.normal().y < -0.99 })
+        );
+        Ok(())
+    }
+
+    #[test]
+    fn scan_frame_reads_dataset_to_world() -> TestResult {
+        use crate::import::{scan_frame, test_scan};
+        let dir = tempfile::tempdir()?;
+        let t = geom::Pose::from_euler_ypr(0.3, -0.1, 0.05, [1.0, 2.0, 0.5])?;
+        let path = test_scan::write(
+            &dir.path().join("scan.glb"),
+            Some(&test_scan::extras(&t)),
+            true,
+        )?;
+        let read = scan_frame(&path)?.ok_or("no transform")?;
+        assert!((read.translation - t.translation).norm() < 1e-12);
+        assert!(read.rotation.angle_to(&t.rotation) < 1e-9);
+        // The same as .gltf text; without the record; an OBJ.
+        let bytes = std::fs::read(&path)?;
+        let (json, _) = split_glb(&bytes)?;
+        let text = dir.path().join("scan.gltf");
+        std::fs::write(&text, json)?;
+        assert!(scan_frame(&text)?.is_some());
+        let bare = test_scan::write(&dir.path().join("bare.glb"), None, true)?;
+        assert_eq!(scan_frame(&bare)?, None);
+        assert_eq!(scan_frame(&fixture("room.obj"))?, None);
+        // Malformed records are errors naming the file.
+        let bad = [
+            (
+                r#"{"indoorloc_scan": {"dataset_to_world": [1, 0, 0]}}"#,
+                "16 numbers",
+            ),
+            (r#"{"indoorloc_scan": {"dataset": "x"}}"#, "16 numbers"),
+            (
+                r#"{"indoorloc_scan": {"dataset_to_world":
+                    [2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 1]}}"#,
+                "not a rigid transform",
+            ),
+        ];
+        for (extras, what) in bad {
+            let path = test_scan::write(&dir.path().join("bad.glb"), Some(extras), true)?;
+            let msg = scan_frame(&path).err().ok_or("accepted")?.to_string();
+            assert!(msg.contains("bad.glb") && msg.contains(what), "{msg}");
+        }
+        let missing = scan_frame(&dir.path().join("gone.glb"))
+            .err()
+            .ok_or("read a missing file")?
+            .to_string();
+        assert!(missing.contains("gone.glb"), "{missing}");
         Ok(())
     }
 

@@ -362,7 +362,8 @@ pub(super) fn finish(mut soup: Soup, opts: &ImportOptions) -> Result<(World, Imp
     match free.nodes {
         0 => soup.warn(
             "no walkable floor found (an upward-facing surface with 2 m of headroom): the walk \
-             graph is empty; check the up axis (Y or Z) and the scale",
+             graph is empty; check the up axis (Y or Z) and the scale (a scan with only part of \
+             a floor has none: draw poses near its camera path instead)",
         ),
         _ if !free.covered => soup.warn(
             "no floor has a ceiling above it; the walk graph includes uncovered surfaces such \
@@ -372,7 +373,15 @@ pub(super) fn finish(mut soup: Soup, opts: &ImportOptions) -> Result<(World, Imp
     }
 
     world.lights = file_lights(&soup.lights, shift);
-    if world.lights.is_empty() {
+    // A scan shows the light it was photographed in; lamps invented for it would only cost
+    // render time (unlit surfaces ignore them) and give `SomeLightsOff` nothing real to switch.
+    let all_unlit = world.triangles.iter().all(|t| {
+        world
+            .materials
+            .get(usize::from(t.material))
+            .is_some_and(|m| m.unlit)
+    });
+    if world.lights.is_empty() && !all_unlit {
         world.lights = emissive_lights(&world);
         if world.lights.is_empty() {
             world.lights = walk::ceiling_lights(&world, &free);

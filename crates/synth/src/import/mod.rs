@@ -17,7 +17,9 @@
 //! - Triangles with materials: the colour (OBJ `Kd`, glTF `baseColorFactor` converted from linear
 //!   to sRGB), an image texture (OBJ `map_Kd`, glTF `baseColorTexture`), emission (OBJ `Ke`,
 //!   glTF `emissiveFactor` × `KHR_materials_emissive_strength`, the brightest channel, clamped to
-//!   0–1), and see-through untextured materials (opacity below 0.6) as [`Pattern::Window`].
+//!   0–1), see-through untextured materials (opacity below 0.6) as [`Pattern::Window`], and glTF
+//!   `KHR_materials_unlit` as [`Material::unlit`] (a scan's photographed colours, shown as they
+//!   are; OBJ has no such material).
 //! - Texture coordinates: textured triangles keep theirs as image coordinates, u to the right
 //!   and v **down** from the top-left corner (glTF's convention; OBJ's upward `vt` is flipped),
 //!   passed through as they are, so repeating textures may go beyond 0–1. Untextured triangles get
@@ -31,7 +33,8 @@
 //!   is a 0.5 m grid of floor points (see "Limits").
 //! - Lights: glTF `KHR_lights_punctual` point and spot lights (spots as points), with intensity
 //!   relative to the file's median light; a model without lights gets one over each emissive
-//!   surface patch, and a model with neither gets lights under its ceilings every 3 m.
+//!   surface patch, and a model with neither gets lights under its ceilings every 3 m, unless
+//!   every triangle is unlit (a scan: its light is in its photographs).
 //!
 //! # Bad files
 //! Problems that make the model unusable are errors ([`SynthError::Model`], naming the file and,
@@ -68,12 +71,14 @@ mod gltf;
 mod mesh;
 mod obj;
 mod planes;
+#[cfg(test)]
+pub(crate) mod test_scan;
 mod texture;
 mod walk;
 
 use crate::world::World;
 #[cfg(doc)]
-use crate::world::{Pattern, Plane, Region};
+use crate::world::{Material, Pattern, Plane, Region};
 use crate::{Result, SynthError};
 use std::path::Path;
 
@@ -244,6 +249,28 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<(World, ImportReport)> 
         }
     };
     mesh::finish(soup, opts)
+}
+
+/// The rigid transform `T` from a scanned dataset's pose frame to the world [`load`] makes of
+/// the scan's model, as a scan's glTF records it: `asset.extras.indoorloc_scan.dataset_to_world`,
+/// 16 numbers of a row-major 4x4 matrix (beside `"dataset"`, the dataset's path). A camera pose
+/// `P` of the dataset (camera-to-world in its own frame) is `T.compose(&P)` in the world. It
+/// holds for the default [`ImportOptions`] (metres, Y up), which a scan's GLB is written for.
+///
+/// `Ok(None)` for a model without the record, and for OBJ and other formats, which carry none.
+///
+/// # Errors
+/// [`SynthError::Io`] when the file cannot be read; [`SynthError::Model`] (naming the file)
+/// when it is not glTF, or the record is not 16 numbers or not a rigid transform.
+pub fn scan_frame(path: &Path) -> Result<Option<geom::Pose>> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("gltf" | "glb") => gltf::scan_frame(path),
+        _ => Ok(None),
+    }
 }
 
 /// The conversion from file coordinates to world coordinates (see the module documentation).

@@ -417,6 +417,7 @@ impl Reader {
             pattern: Pattern::Plain,
             seed: seed_of(&def.name),
             emissive,
+            unlit: false,
         };
         let mut xf = None;
         if let Some((file, transform, no)) = &def.map_kd {

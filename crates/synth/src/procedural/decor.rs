@@ -615,6 +615,7 @@ impl Placer<'_> {
             pattern,
             seed,
             emissive: 0.0,
+            unlit: false,
         })
     }
 
@@ -633,6 +634,7 @@ impl Placer<'_> {
             pattern: Pattern::Sign,
             seed,
             emissive: 0.5,
+            unlit: false,
         })
     }
 
@@ -644,6 +646,7 @@ impl Placer<'_> {
             pattern: Pattern::LightPanel,
             seed: rng::hash(&[self.cx.seed, run as u64]),
             emissive: 1.0,
+            unlit: false,
         });
         if let Some((f, _)) = self.frames.get(run) {
             let [cu, cv] = rect.center();
@@ -725,6 +728,7 @@ impl Placer<'_> {
                 self.out.ceiling.iter().filter(|c| c.zone == zi).count() as u64,
             ]),
             emissive: 1.0,
+            unlit: false,
         });
         let [cx, cy] = item.center();
         let intensity = (item.w() * item.h() / 0.72).clamp(0.4, 1.5);

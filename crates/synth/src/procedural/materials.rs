@@ -140,6 +140,7 @@ fn add(world: &mut World, name: &str, color: [f32; 3], pattern: Pattern, seed: u
         pattern,
         seed,
         emissive: 0.0,
+        unlit: false,
     })
 }
 

@@ -33,8 +33,9 @@
 //!    footprint), a magnified one is bilinear. Light is Lambertian from the ≤ 8 lamps nearest
 //!    to each 16x16 tile (lamps of the camera's storey), evaluated on a grid of every fourth
 //!    pixel and interpolated over each surface, plus ambient, emissive surfaces (a fixture
-//!    glows only while a lamp showing it is on) and daylight through windows; haze fades
-//!    towards its colour with distance.
+//!    glows only while a lamp showing it is on) and daylight through windows; an unlit surface
+//!    (a scan's photographs) shows its colour as it is, scaled only by the ambient level; haze
+//!    fades towards its colour with distance.
 //! 3. Finishing: motion-blur sub-frames averaged, vignetting, tone mapping (a soft shoulder)
 //!    and sRGB encoding, sensor noise drawn from a hash of the seed and the pixel (same seed,
 //!    same bytes).
@@ -1113,6 +1114,70 @@ mod tests {
         // The next frame without people no longer shows it.
         let after = r.render(&scene, &camera, &pose, &flat(RenderMode::Shaded), &[])?;
         assert_eq!(after.depth, before.depth);
+        Ok(())
+    }
+
+    /// An unlit surface (a scan's photograph) renders as its texture's colour under the default
+    /// atmosphere, whatever lamp hangs before it; a lit twin does not. `Dim` halves its light
+    /// (ambient 0.25 → 0.125), `SomeLightsOff` leaves it, and haze still veils it.
+    #[test]
+    fn render_unlit_surface_shows_its_texture_as_it_is() -> R {
+        let texel = [200u8, 120, 60];
+        let image = std::sync::Arc::new(image::RgbImage::from_pixel(2, 2, image::Rgb(texel)));
+        let world_with = |unlit: bool| {
+            let mut w = World::default();
+            let m = w.add_material(Material {
+                pattern: Pattern::Image(image.clone()),
+                unlit,
+                ..Material::plain("scan", [1.0; 3])
+            });
+            // A wall at x = 2 facing the camera (its normal is −x), filling the view.
+            let corners = [
+                [2.0, -3.0, -2.0],
+                [2.0, -3.0, 4.0],
+                [2.0, 3.0, 4.0],
+                [2.0, 3.0, -2.0],
+            ];
+            quad(&mut w, corners, m, 0);
+            w.lights.push(Light {
+                position: Point3::new(1.0, 0.0, 1.0),
+                intensity: 1.0,
+                on: true,
+                fixture: None,
+            });
+            w
+        };
+        let camera = Camera::from_hfov(32, 24, 1.0)?;
+        let pose = look_at([0.0, 0.0, 1.0], [2.0, 0.0, 1.0])?;
+        let shot = |w: &World| -> R<image::RgbImage> {
+            let scene = RenderScene::new(w)?;
+            Ok(render(&scene, &camera, &pose, &flat(RenderMode::Textured))?.rgb)
+        };
+        // Within the sensor's sRGB fit (1.2 levels) of `want` at every pixel.
+        let near = |img: &image::RgbImage, want: [u8; 3]| {
+            img.pixels()
+                .all(|p| (0..3).all(|k| p.0[k].abs_diff(want[k]) <= 2))
+        };
+        let unlit = world_with(true);
+        let img = shot(&unlit)?;
+        assert!(near(&img, texel), "{:?}", img.get_pixel(16, 12));
+        assert!(!near(&shot(&world_with(false))?, texel));
+
+        let scaled = |f: f32| {
+            texel.map(|c| scene::linear_to_srgb8(scene::srgb_to_linear(f32::from(c) / 255.0) * f))
+        };
+        let mut dim = unlit.clone();
+        crate::variants::apply(&mut dim, crate::Variant::Dim, 1);
+        let img = shot(&dim)?;
+        assert!(near(&img, scaled(0.5)), "{:?}", img.get_pixel(16, 12));
+        let mut off = unlit.clone();
+        crate::variants::apply(&mut off, crate::Variant::SomeLightsOff, 1);
+        assert!(near(&shot(&off)?, texel));
+        let mut hazy = unlit;
+        hazy.atmosphere.haze = 0.3;
+        hazy.atmosphere.haze_color = [0.2, 0.2, 0.9];
+        let img = shot(&hazy)?;
+        assert!(img.get_pixel(16, 12).0[2] > texel[2] + 20);
         Ok(())
     }
 

@@ -8,7 +8,7 @@
 use super::raster::Stamps;
 use super::texture::{self, Texture};
 use crate::error::{Result, SynthError};
-use crate::world::{Material, Pattern, Triangle, World};
+use crate::world::{Atmosphere, Material, Pattern, Triangle, World};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -309,7 +309,7 @@ pub(crate) struct Luts {
 }
 
 /// The sRGB transfer curve (linear 0–1 → sRGB byte), exact, for building mip levels.
-fn linear_to_srgb8(x: f32) -> u8 {
+pub(crate) fn linear_to_srgb8(x: f32) -> u8 {
     let t = x.clamp(0.0, 1.0);
     let s = if t <= 0.003_130_8 {
         12.92 * t
@@ -350,6 +350,8 @@ pub(crate) struct SceneMaterial {
     pub emissive: f32,
     /// A window pane: lit by daylight rather than by lamps.
     pub window: bool,
+    /// Shown as it is, scaled only by [`RenderScene::unlit_gain`] (`Material::unlit`).
+    pub unlit: bool,
     /// The baked texture.
     pub mips: Mips,
 }
@@ -547,6 +549,9 @@ pub struct RenderScene {
     pub(crate) storeys: Vec<Storey>,
     pub(crate) grid: Grid,
     pub(crate) ambient: f32,
+    /// Radiance of an unlit surface per unit albedo: 1 at the default ambient level, in
+    /// proportion to the ambient level otherwise (see `Atmosphere::DEFAULT_AMBIENT`).
+    pub(crate) unlit_gain: f32,
     pub(crate) daylight: f32,
     pub(crate) haze: f32,
     pub(crate) haze_color: [f32; 3],
@@ -604,6 +609,7 @@ impl RenderScene {
                     albedo: color.map(srgb_to_linear),
                     emissive: emissive * fixture,
                     window: matches!(m.pattern, Pattern::Window),
+                    unlit: m.unlit,
                     mips: Mips::new(&texture::bake(m), byte),
                 }
             })
@@ -648,6 +654,7 @@ impl RenderScene {
             })
             .collect();
         let finite01 = |x: f32, default: f32| if x.is_finite() { x.max(0.0) } else { default };
+        let ambient = finite01(atm.ambient, Atmosphere::DEFAULT_AMBIENT);
         Ok(RenderScene {
             id: NEXT_SCENE_ID.fetch_add(1, Ordering::Relaxed),
             tris,
@@ -655,7 +662,8 @@ impl RenderScene {
             lights,
             storeys,
             grid,
-            ambient: finite01(atm.ambient, 0.25),
+            ambient,
+            unlit_gain: ambient / Atmosphere::DEFAULT_AMBIENT,
             daylight: finite01(atm.daylight, 0.0),
             haze: finite01(atm.haze, 0.0),
             haze_color: atm.haze_color.map(|c| srgb_to_linear(finite01(c, 0.5))),

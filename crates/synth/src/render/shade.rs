@@ -10,6 +10,11 @@
 //! across tiles also hides the seams that per-tile light lists would leave. Without shadows,
 //! light passes through walls (a lamp in the next room brightens this side of the floor a
 //! little); with `shadows`, every light is tested with a ray through the scene's grid.
+//!
+//! An unlit surface (`Material::unlit`, a scan's photographed texture) takes none of this: its
+//! radiance is its albedo times the scene's `unlit_gain`, 1 under the default atmosphere, so
+//! a render reproduces the photograph's colours (up to the sensor's tone curve, vignetting and
+//! noise) instead of lighting its baked-in light a second time. Haze still applies.
 
 // `!(x > y)` is deliberate here: it is also true for NaN, which must fail the check.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -457,13 +462,18 @@ impl Shade {
                 } else {
                     m.albedo
                 };
-                let e = scene.ambient + e;
-                let mut light = if m.window {
-                    0.05 + 0.3 * e + WINDOW_GAIN * scene.daylight
+                let light = if m.unlit {
+                    // Its light is in its colours already (a scan's photographs).
+                    scene.unlit_gain
                 } else {
-                    e
+                    let e = scene.ambient + e;
+                    let light = if m.window {
+                        0.05 + 0.3 * e + WINDOW_GAIN * scene.daylight
+                    } else {
+                        e
+                    };
+                    light + m.emissive * EMISSIVE_GAIN
                 };
-                light += m.emissive * EMISSIVE_GAIN;
                 let mut rad = albedo.map(|a| a * light);
                 if scene.haze > 0.0 {
                     let rx = (sx - cam.cx) / cam.fx;

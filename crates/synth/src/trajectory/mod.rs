@@ -1,6 +1,7 @@
 //! Camera trajectories through a [`World`]: natural walks along the walk graph for a hand-held or
 //! head-mounted camera ([`Rig::Forward`]) and for an upward-looking robot camera
-//! ([`Rig::Ceiling`]), uniform random poses in free space, and sequences with scene cuts.
+//! ([`Rig::Ceiling`]), uniform random poses in free space, random poses near a given camera path
+//! ([`near_poses`], for scans), and sequences with scene cuts.
 //!
 //! # How a walk is made
 //! 1. A **route** over [`crate::world::WalkGraph`]: a random walk that prefers going straight on,
@@ -27,6 +28,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+mod near;
 mod path;
 mod random;
 mod route;
@@ -36,6 +38,7 @@ pub(crate) mod test_world;
 #[cfg(test)]
 mod tests;
 
+pub use near::near_poses;
 pub(crate) use route::Graph;
 
 /// How the camera is carried.
@@ -429,6 +432,8 @@ pub(crate) mod stream {
     pub const COLOURS: u64 = 8;
     /// Crowds of people.
     pub const CROWD: u64 = 9;
+    /// Poses near a given path.
+    pub const NEAR: u64 = 10;
 }
 
 /// A ChaCha8 generator for `seed` on its own `stream`.

@@ -112,21 +112,21 @@ fn candidate(region: &Region, h_lo: f64, h_hi: f64, r: &mut impl Rng) -> Vector3
 }
 
 /// A standard normal draw (Box–Muller).
-fn normal(r: &mut impl Rng) -> f64 {
+pub(super) fn normal(r: &mut impl Rng) -> f64 {
     let u1 = r.random::<f64>().max(1e-12);
     let u2 = r.random::<f64>();
     (-2.0 * u1.ln()).sqrt() * (2.0 * PI * u2).cos()
 }
 
 /// Triangles binned by floor-plan cell, to find those near a point without scanning all.
-struct TriangleGrid {
+pub(super) struct TriangleGrid {
     cells: HashMap<(i64, i64), Vec<u32>>,
     /// Triangles spanning too many cells to bin (a huge floor): always checked.
     big: Vec<u32>,
 }
 
 impl TriangleGrid {
-    fn new(tris: &[Triangle]) -> Self {
+    pub(super) fn new(tris: &[Triangle]) -> Self {
         let mut cells: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
         let mut big = Vec::new();
         for (i, t) in tris.iter().enumerate() {
@@ -148,7 +148,7 @@ impl TriangleGrid {
 
     /// Distance from `p` to the nearest triangle, up to `limit` (returned when nothing is
     /// nearer).
-    fn clearance(&self, tris: &[Triangle], p: &Vector3<f64>, limit: f64) -> f64 {
+    pub(super) fn clearance(&self, tris: &[Triangle], p: &Vector3<f64>, limit: f64) -> f64 {
         let mut best = limit;
         let mut check = |i: u32| {
             if let Some(t) = tris.get(i as usize) {

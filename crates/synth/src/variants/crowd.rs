@@ -386,6 +386,7 @@ impl Palette {
                 pattern,
                 seed: seed.wrapping_mul(31).wrapping_add(k),
                 emissive: 0.0,
+                unlit: false,
             })
         };
         let shirts = [

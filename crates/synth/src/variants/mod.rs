@@ -34,6 +34,14 @@ pub use crowd::{Crowd, Figure};
 /// A switched-off light also looks off: its fixture's triangles get a dark, non-emissive copy of
 /// the fixture material (fixtures often share one material, so the copy is made per material
 /// and given only to the triangles nearest a switched-off light).
+///
+/// An unlit surface (a scan, [`crate::world::Material::unlit`]) ignores lamps and daylight and
+/// follows the ambient level alone, so on a scan: `SomeLightsOff` changes nothing (its light is
+/// in its photographs; only a file's own lamps switch, lighting what is not unlit); `Dim`
+/// halves its brightness; `Daylight` raises it 1.6-fold (ambient 0.4 against the default 0.25;
+/// the sensor's shoulder rolls the brightest parts off); `Disaster` brings it to 40 % and adds
+/// the haze; `TextureSwap` recolours its flat colour (`shaded` mode) but not its photographs
+/// (image textures are used as they are).
 pub fn apply(world: &mut World, variant: Variant, seed: u64) {
     let mut r = rng(seed, stream::LIGHTS);
     match variant {

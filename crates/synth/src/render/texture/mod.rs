@@ -154,6 +154,11 @@ pub const METAL_REPEAT_M: f32 = 0.5;
 pub const FABRIC_REPEAT_M: f32 = 0.25;
 /// Largest side of a resampled image texture, texels.
 pub const MAX_IMAGE_SIDE: u32 = 1024;
+/// Largest side of an unlit material's image ([`Material::unlit`]: a scan's texture atlas),
+/// texels. An atlas holds a whole room, not one repeating surface: at 1024 a kitchen's atlas
+/// would keep texels of 2–3 cm, blurring what a camera a metre away sees. At 4096 its mip levels
+/// take about 90 MB; 8192 would take four times that, and 1 GB of scratch while baking.
+pub const MAX_ATLAS_SIDE: u32 = 4096;
 
 /// Bakes the material's pattern (procedural or image) into a texture.
 ///
@@ -176,6 +181,13 @@ pub fn bake(material: &Material) -> Texture {
         Pattern::Vent => vent(m),
         Pattern::Metal => metal(m),
         Pattern::Fabric => fabric(m),
-        Pattern::Image(img) => resample_image(img, tint(m)),
+        Pattern::Image(img) => {
+            let max = if m.unlit {
+                MAX_ATLAS_SIDE
+            } else {
+                MAX_IMAGE_SIDE
+            };
+            resample_image(img, tint(m), max)
+        }
     }
 }

@@ -1,14 +1,16 @@
 //! Image textures: a picture (from a glTF or OBJ model) resampled to power-of-two sides of at
-//! most [`MAX_IMAGE_SIDE`], so that the renderer wraps its texel indices by masking as it does
-//! for the procedural patterns.
+//! most [`MAX_IMAGE_SIDE`] ([`MAX_ATLAS_SIDE`] for a scan's atlas), so that the renderer wraps
+//! its texel indices by masking as it does for the procedural patterns.
 
+use super::Texture;
 use super::color::{Rgb, to_u8};
-use super::{MAX_IMAGE_SIDE, Texture};
+#[cfg(doc)]
+use super::{MAX_ATLAS_SIDE, MAX_IMAGE_SIDE};
 use image::imageops::FilterType;
 
-/// The power of two nearest to `n` (in ratio), from 1 to [`MAX_IMAGE_SIDE`].
-fn pow2_near(n: u32) -> u32 {
-    let n = n.clamp(1, MAX_IMAGE_SIDE);
+/// The power of two nearest to `n` (in ratio), from 1 to `max` (a power of two).
+fn pow2_near(n: u32, max: u32) -> u32 {
+    let n = n.clamp(1, max);
     let lo = if n.is_power_of_two() {
         n
     } else {
@@ -22,7 +24,8 @@ fn pow2_near(n: u32) -> u32 {
     }
 }
 
-pub(crate) fn resample_image(img: &image::RgbImage, fallback: Rgb) -> Texture {
+/// `img` at power-of-two sides of at most `max` texels (`fallback`'s one texel when empty).
+pub(crate) fn resample_image(img: &image::RgbImage, fallback: Rgb, max: u32) -> Texture {
     let (w0, h0) = img.dimensions();
     if w0 == 0 || h0 == 0 {
         return Texture {
@@ -32,7 +35,7 @@ pub(crate) fn resample_image(img: &image::RgbImage, fallback: Rgb) -> Texture {
             repeat_m: [1.0, 1.0],
         };
     }
-    let (w, h) = (pow2_near(w0), pow2_near(h0));
+    let (w, h) = (pow2_near(w0, max), pow2_near(h0, max));
     let texels = if (w, h) == (w0, h0) {
         img.pixels().map(|p| p.0).collect()
     } else {

@@ -15,6 +15,7 @@ fn mat(pattern: Pattern, color: [f32; 3], seed: u64) -> Material {
         pattern,
         seed,
         emissive: 0.0,
+        unlit: false,
     }
 }
 
@@ -173,9 +174,16 @@ fn texture_image_is_resampled_to_powers_of_two() -> TestResult {
     let row: Vec<u8> = (0..t.width).map(|x| t.texel(i64::from(x), 10)[0]).collect();
     assert!(row.windows(2).all(|w| w[1] + 2 >= w[0]), "{row:?}");
     assert!(row[120] > row[8] + 100);
-    let big = image::RgbImage::new(3000, 10);
-    let t = bake(&mat(Pattern::Image(Arc::new(big)), [1.0; 3], 0));
+    let big = Arc::new(image::RgbImage::new(3000, 10));
+    let t = bake(&mat(Pattern::Image(big.clone()), [1.0; 3], 0));
     assert_eq!((t.width, t.height), (MAX_IMAGE_SIDE, 8));
+    // A scan's atlas (unlit) keeps more of its texels.
+    let atlas = Material {
+        unlit: true,
+        ..mat(Pattern::Image(big), [1.0; 3], 0)
+    };
+    let t = bake(&atlas);
+    assert_eq!((t.width, t.height), (MAX_ATLAS_SIDE, 8));
     let exact = image::RgbImage::from_pixel(32, 16, image::Rgb([1, 2, 3]));
     let t = bake(&mat(Pattern::Image(Arc::new(exact)), [1.0; 3], 0));
     assert_eq!((t.width, t.height), (32, 16));
