@@ -24,6 +24,9 @@ use rayon::prelude::*;
 const MIN_CELL: usize = 4;
 /// …and at most this many.
 const MAX_CELL: usize = 64;
+/// Largest atlas side, texels: what `synth` keeps of a scan's texture without resampling it
+/// (resampling would blur across cell edges).
+pub const MAX_SIDE: usize = 4096;
 /// Colour of atlas texels no triangle uses.
 const UNUSED: [u8; 3] = [128, 128, 128];
 
@@ -33,7 +36,8 @@ pub struct AtlasConfig {
     /// Wanted texel edge on the surface, metres (the voxel is a good choice: finer holds no
     /// more colour).
     pub texel_m: f64,
-    /// Most texels in the atlas; the texel grows until the cells fit.
+    /// Most texels in the atlas; the texel grows until the cells fit, and fit in
+    /// [`MAX_SIDE`] a side.
     pub max_texels: usize,
 }
 
@@ -41,7 +45,7 @@ impl Default for AtlasConfig {
     fn default() -> Self {
         Self {
             texel_m: 0.01,
-            max_texels: 4096 * 4096,
+            max_texels: 12 * 1024 * 1024,
         }
     }
 }
@@ -62,7 +66,7 @@ pub fn bake(mesh: &ColoredMesh, volume: &Volume, cfg: &AtlasConfig) -> TexturedM
         })
         .collect();
     let mut texel = cfg.texel_m.max(1e-4);
-    let sizes = loop {
+    let (sizes, cells, width, height) = loop {
         let sizes: Vec<usize> = longest
             .iter()
             .map(|&l| {
@@ -72,12 +76,18 @@ pub fn bake(mesh: &ColoredMesh, volume: &Volume, cfg: &AtlasConfig) -> TexturedM
             })
             .collect();
         let total: usize = sizes.iter().map(|s| s * s).sum();
-        if total <= cfg.max_texels || sizes.iter().all(|&s| s == MIN_CELL) {
-            break sizes;
+        let smallest = sizes.iter().all(|&s| s == MIN_CELL);
+        if total > cfg.max_texels && !smallest {
+            texel *= (total as f64 / cfg.max_texels as f64).sqrt() * 1.05;
+            continue;
         }
-        texel *= (total as f64 / cfg.max_texels as f64).sqrt() * 1.05;
+        let (cells, width, height) = pack(&sizes);
+        if height > MAX_SIDE && !smallest {
+            texel *= 1.1;
+            continue;
+        }
+        break (sizes, cells, width, height);
     };
-    let (cells, width, height) = pack(&sizes);
     let colors: Vec<Vec<[u8; 3]>> = (0..n)
         .into_par_iter()
         .map(|t| cell_colors(mesh, volume, t, sizes[t]))
@@ -143,7 +153,7 @@ fn pack(sizes: &[usize]) -> (Vec<(usize, usize)>, usize, usize) {
     let total: usize = sizes.iter().map(|s| s * s).sum();
     let width = ((total as f64 * 1.15).sqrt().ceil() as usize)
         .next_power_of_two()
-        .max(MAX_CELL);
+        .clamp(MAX_CELL, MAX_SIDE);
     let mut order: Vec<usize> = (0..sizes.len()).collect();
     order.sort_by_key(|&t| std::cmp::Reverse(sizes[t]));
     let mut cells = vec![(0, 0); sizes.len()];

@@ -18,7 +18,8 @@ pub struct ScanConfig {
     pub max_error_m: Option<f64>,
     /// Most triangles after simplification.
     pub max_triangles: usize,
-    /// Largest atlas, texels (its texel starts at one voxel).
+    /// Largest atlas, texels (its texel starts at one voxel; its sides stay within
+    /// [`atlas::MAX_SIDE`]).
     pub max_texels: usize,
 }
 
@@ -28,7 +29,7 @@ impl Default for ScanConfig {
             fuse: FuseConfig::default(),
             max_error_m: None,
             max_triangles: 400_000,
-            max_texels: 4096 * 4096,
+            max_texels: 12 * 1024 * 1024,
         }
     }
 }

@@ -15,7 +15,7 @@ use std::process::{Command, Stdio};
 use std::time::Instant;
 
 /// The studies, in the order they run.
-const STUDIES: [&str; 8] = [
+const STUDIES: [&str; 9] = [
     "markers-distance",
     "cuts",
     "sequence",
@@ -23,6 +23,7 @@ const STUDIES: [&str; 8] = [
     "render-types",
     "robustness",
     "real",
+    "synth-to-real",
     "place-split",
 ];
 
@@ -35,7 +36,8 @@ pub struct AllConfig {
     /// Folder of the studies' folders and JSON.
     #[arg(long, value_name = "DIR", default_value = "indoorloc-study-all")]
     out: PathBuf,
-    /// The real dataset of `study real` (default: the shared 7-Scenes kitchen frames).
+    /// The real dataset of `study real` and `study synth-to-real` (default: the shared 7-Scenes
+    /// kitchen frames).
     #[arg(long, value_name = "DATASET")]
     data: Option<PathBuf>,
     /// Only these studies (comma-separated names).
@@ -202,7 +204,7 @@ fn run_one(exe: &Path, study: &str, args: &AllConfig) -> Result<serde_json::Valu
     if args.quick {
         cmd.arg("--quick");
     }
-    if study == "real" {
+    if study == "real" || study == "synth-to-real" {
         let data = match &args.data {
             Some(d) => d.clone(),
             None => {

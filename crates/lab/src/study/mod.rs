@@ -10,6 +10,7 @@ mod real;
 mod render_types;
 mod robustness;
 mod sequence;
+mod synth_to_real;
 mod track;
 mod uncertainty;
 
@@ -50,6 +51,10 @@ enum Study {
     /// A real posed dataset end to end: mean training pose, image retrieval, the network
     /// (real-photo recipe) and the network + sequence model on the held-out frames.
     Real(real::RealConfig),
+    /// A network trained only on renders of a scan of the room (fused from the training
+    /// frames' RGB-D), tested on the real held-out photos, per render type, beside the same
+    /// recipe on the real photos and refined against a map of renders.
+    SynthToReal(synth_to_real::SynthToRealConfig),
     /// Marker pose error against distance and viewing angle, for two camera resolutions, on
     /// a marker rendered on a wall.
     MarkersDistance(markers_distance::MarkersDistanceConfig),
@@ -74,6 +79,7 @@ pub fn run(args: &StudyConfig, sink: &mut dyn crate::Output) -> Result<()> {
         Study::PlaceSplit(a) => place_split::run(a, sink),
         Study::MarkersDistance(a) => markers_distance::run(a, sink),
         Study::Real(a) => real::run(a, sink),
+        Study::SynthToReal(a) => synth_to_real::run(a, sink),
         Study::Uncertainty(a) => uncertainty::run(a, sink),
         Study::All(a) => all::run(a, sink),
     }

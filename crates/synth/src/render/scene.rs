@@ -187,6 +187,12 @@ impl Mips {
         }
     }
 
+    /// The texture's mean colour in linear light (its last, one-texel level).
+    pub fn mean_linear(&self) -> [f32; 3] {
+        let c = self.levels.last().map_or(0, |l| l.texels[0]);
+        [0, 8, 16].map(|shift| srgb_to_linear(f32::from(((c >> shift) & 0xff) as u8) / 255.0))
+    }
+
     /// Bilinear sample at `(u, v)` on the mip level whose texels are about one pixel big, given
     /// `rho2`, the squared texel footprint of a pixel on level 0. Returns packed sRGB.
     #[inline(always)]
@@ -344,7 +350,8 @@ pub(crate) fn srgb_to_linear(s: f32) -> f32 {
 /// What the shader needs of a material.
 #[derive(Clone, Debug)]
 pub(crate) struct SceneMaterial {
-    /// `Material::color` in linear light (the flat colour of `shaded` mode).
+    /// `Material::color` in linear light (the flat colour of `shaded` mode); for an unlit
+    /// material, times its texture's mean colour.
     pub albedo: [f32; 3],
     /// Light given off, after switched-off fixtures are accounted for.
     pub emissive: f32,
@@ -605,12 +612,20 @@ impl RenderScene {
                 };
                 let fixture = glow.get(i).copied().flatten().unwrap_or(1.0).min(1.5);
                 let byte = color.map(|c| (c.clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
+                let mips = Mips::new(&texture::bake(m), byte);
+                let mut albedo = color.map(srgb_to_linear);
+                if m.unlit {
+                    // A scan's flat colour is its photographs' mean, not the glTF factor
+                    // (white): `shaded` mode then shows its form in its own tone.
+                    let mean = mips.mean_linear();
+                    albedo = [0, 1, 2].map(|k| albedo[k] * mean[k]);
+                }
                 SceneMaterial {
-                    albedo: color.map(srgb_to_linear),
+                    albedo,
                     emissive: emissive * fixture,
                     window: matches!(m.pattern, Pattern::Window),
                     unlit: m.unlit,
-                    mips: Mips::new(&texture::bake(m), byte),
+                    mips,
                 }
             })
             .collect();

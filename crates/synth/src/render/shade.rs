@@ -14,7 +14,9 @@
 //! An unlit surface (`Material::unlit`, a scan's photographed texture) takes none of this: its
 //! radiance is its albedo times the scene's `unlit_gain`, 1 under the default atmosphere, so
 //! a render reproduces the photograph's colours (up to the sensor's tone curve, vignetting and
-//! noise) instead of lighting its baked-in light a second time. Haze still applies.
+//! noise) instead of lighting its baked-in light a second time. Haze still applies. In `shaded`
+//! mode, which shows no textures, an unlit surface takes its texture's mean colour lit by a
+//! headlight (30 % ambient, 70 % by the cosine to the view ray), so a scan's form shows.
 
 // `!(x > y)` is deliberate here: it is also true for NaN, which must fail the check.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -462,9 +464,16 @@ impl Shade {
                 } else {
                     m.albedo
                 };
-                let light = if m.unlit {
+                let light = if m.unlit && textured {
                     // Its light is in its colours already (a scan's photographs).
                     scene.unlit_gain
+                } else if m.unlit {
+                    // `shaded` has no photograph to show, and a scan has no lamps: a headlight
+                    // shows its form, as a BIM model's shaded render does.
+                    let r =
+                        [0, 1, 2].map(|k| view.ray0[k] + sx * view.ray_x[k] + sy * view.ray_y[k]);
+                    let cos = dot32(t.n, r).abs() / dot32(r, r).sqrt();
+                    scene.unlit_gain * (0.3 + 0.7 * cos)
                 } else {
                     let e = scene.ambient + e;
                     let light = if m.window {

@@ -1,0 +1,691 @@
+//! `indoorloc study synth-to-real`: a network trained only on renders of a scanned room, tested
+//! on real photos of that room — BIM-PoseNet's claim (Acharya et al. 2019: trained on renders
+//! of a BIM model, about 1.6 m / 9° on real images) with a scan for the model.
+//!
+//! 1. The training blocks' RGB-D frames are fused into a textured mesh (`recon`, `DIR/scan.glb`);
+//!    the held-out blocks are never fused.
+//! 2. For each render type (textured, shaded, gradmag, edges, as in `study render-types`) the
+//!    scan is rendered at random poses near the training frames' path (within 0.3 m and 10°,
+//!    `synth`'s near sampler) through the dataset's own colour camera, and the real-photo recipe
+//!    ([`learn::TrainConfig::for_real_photos`]) trains on those renders alone; its epoch is chosen
+//!    on held-out render sequences, never on photos.
+//! 3. Each network localizes the real held-out photos (turned into gradient magnitude or Canny
+//!    edges for those types, as BIM-PoseNet does). Beside them: the same recipe trained on the
+//!    real training photos, and the textured renders-only network refined against a keyframe
+//!    map built from renders with their rendered depth at the training frames' poses — so no
+//!    real photo is used at all in that pipeline.
+//!
+//! Renders live in the scan's levelled frame; poses are mapped back to the dataset's frame
+//! through the scan's `dataset_to_world` before they are compared with the ground truth.
+
+use crate::output::{print_json, print_text};
+use crate::train::train_with_progress;
+use crate::{Context, Result, bail};
+use clap::Args;
+use data::blocks::BlockSplit;
+use data::native::SplitName;
+use data::posed::{self, PosedImage, SplitPlan};
+use geom::metrics::{Stats, position_error, rotation_error_deg};
+use geom::{Camera, Pose};
+use image::DynamicImage;
+use learn::{Estimate, Localizer, TrainConfig};
+use map::{BuildConfig, Coarse, KeyframeMap, RefineConfig};
+use rayon::prelude::*;
+use recon::{FuseConfig, ScanConfig};
+use report::{HtmlReport, Table, Tile};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use synth::dataset::{Sampler, SynthConfig, WorldSource};
+use synth::import::ImportOptions;
+use synth::render::{RenderMode, RenderOptions, RenderScene, Renderer};
+
+/// The render types compared, in table order.
+const MODES: [&str; 4] = ["textured", "shaded", "gradmag", "edges"];
+/// Side of the renders the networks train on (the photos' 4:3).
+const RENDER_SIZE: (u32, u32) = (320, 240);
+/// Largest distance of a rendered camera from a training frame's, metres.
+const NEAR_RADIUS_M: f64 = 0.3;
+/// Largest rotation of a rendered camera from a training frame's, degrees.
+const NEAR_ANGLE_DEG: f64 = 10.0;
+/// Sequences of the renders (whole sequences are held out for validation).
+const SEQUENCES: usize = 10;
+/// Test frames shown beside their renders in the report.
+const SHOWN: usize = 6;
+
+/// Arguments of `indoorloc study synth-to-real`.
+#[derive(Args, Debug)]
+pub struct SynthToRealConfig {
+    /// A posed RGB-D dataset (7-Scenes, TUM RGB-D, native with depth).
+    #[arg(long, value_name = "DATASET")]
+    data: PathBuf,
+    /// Blocks of consecutive frames, BLOCK:EVERY[:OFFSET], instead of the dataset's own split.
+    #[arg(long, value_name = "BLOCK:EVERY[:OFFSET]")]
+    blocks: Option<BlockSplit>,
+    /// Folder for the scan, the renders, the models and `report.html` (renders and models made
+    /// before with the same settings are reused).
+    #[arg(
+        long,
+        value_name = "DIR",
+        default_value = "indoorloc-study-synth-to-real"
+    )]
+    out: PathBuf,
+    /// Fewer renders and epochs and a coarser scan (minutes).
+    #[arg(long)]
+    quick: bool,
+    /// Render types to train on (default: textured, shaded, gradmag, edges).
+    #[arg(long, value_delimiter = ',', value_parser = MODES)]
+    modes: Vec<String>,
+    /// Renders per type, a fifth of them for validation and a fifth unused (default 2000, 800
+    /// with --quick).
+    #[arg(long)]
+    renders: Option<usize>,
+    /// Voxel of the scan, metres (default 0.01, 0.02 with --quick).
+    #[arg(long)]
+    voxel: Option<f64>,
+    /// The networks' epochs (default 40, 12 with --quick; the real-photo recipe's 150 would
+    /// take an hour for five networks).
+    #[arg(long)]
+    epochs: Option<usize>,
+    /// Monte-Carlo-dropout passes per frame.
+    #[arg(long, default_value_t = 16)]
+    mc: usize,
+    /// Print one JSON document instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// One row of the table.
+#[derive(Debug, Serialize)]
+struct Row {
+    /// `network`, `network+map` (the network's pose refined against the map of renders) or
+    /// `map` (the map of renders alone, from its own retrieval).
+    method: &'static str,
+    /// `real` (the training photos) or `renders` (renders of the scan alone).
+    training: &'static str,
+    /// Render type of the training images (`photo` for the real photos).
+    render_type: String,
+    /// Refined against the keyframe map of the renders.
+    refined: bool,
+    median_pos_m: f64,
+    median_rot_deg: f64,
+    mean_pos_m: f64,
+    mean_rot_deg: f64,
+    /// Share within (0.25 m, 2°).
+    acc_25cm_2deg: f64,
+    /// Share within (0.5 m, 5°).
+    acc_50cm_5deg: f64,
+    /// Share within (5 m, 10°).
+    acc_5m_10deg: f64,
+    /// Training images.
+    training_frames: usize,
+    /// The network's validation median position error (on its own validation images), metres.
+    val_median_pos_m: Option<f64>,
+}
+
+/// What the study prints.
+#[derive(Debug, Serialize)]
+struct StudyOutput {
+    dataset: String,
+    split: String,
+    train_frames: usize,
+    test_frames: usize,
+    scan: PathBuf,
+    scan_triangles: usize,
+    scan_voxel_m: f64,
+    network: String,
+    rows: Vec<Row>,
+    report: PathBuf,
+    /// Seconds scanning, rendering (every type and the map's renders), training (every
+    /// network, features included), building the map and refining, and in all.
+    scan_s: f64,
+    render_s: f64,
+    train_s: f64,
+    map_s: f64,
+    total_s: f64,
+}
+
+/// One method's poses for the test frames (dataset frame).
+struct Method {
+    method: &'static str,
+    training: &'static str,
+    render_type: String,
+    refined: bool,
+    poses: Vec<Pose>,
+    training_frames: usize,
+    val_median_pos_m: Option<f64>,
+}
+
+/// Runs `indoorloc study synth-to-real`.
+pub fn run(args: &SynthToRealConfig, sink: &mut dyn crate::Output) -> Result<()> {
+    let say = |text: &str| {
+        if !args.json {
+            crate::progress::note(text);
+        }
+    };
+    let modes: Vec<&str> = if args.modes.is_empty() {
+        MODES.to_vec()
+    } else {
+        args.modes.iter().map(String::as_str).collect()
+    };
+    let renders = args.renders.unwrap_or(if args.quick { 800 } else { 2000 });
+    let voxel = args.voxel.unwrap_or(if args.quick { 0.02 } else { 0.01 });
+    let start = Instant::now();
+    let (mut render_s, mut train_s) = (0.0, 0.0);
+    let ds = posed::open(&args.data)?;
+    let plan = args.blocks.map_or(SplitPlan::Auto, SplitPlan::Blocks);
+    let parts = ds.parts(plan);
+    let mapped = ds.mapped(plan);
+    let test: Vec<&PosedImage> = ds
+        .images
+        .iter()
+        .zip(&parts)
+        .filter(|(_, p)| **p == Some(SplitName::Test))
+        .map(|(i, _)| i)
+        .collect();
+    if mapped.is_empty() || test.is_empty() {
+        bail!(
+            "{}: the split leaves {} training and {} test frames ({})",
+            args.data.display(),
+            mapped.len(),
+            test.len(),
+            ds.describe_split(plan)
+        );
+    }
+    let camera = ds.require_camera()?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let truth: Vec<Pose> = test.iter().map(|i| i.frame.pose).collect();
+
+    say(&format!(
+        "1/5 scanning the {} training frames at {} cm voxels (the held-out blocks are not fused)",
+        mapped.len(),
+        100.0 * voxel
+    ));
+    let glb = args.out.join("scan.glb");
+    let scan_cfg = ScanConfig {
+        fuse: FuseConfig {
+            voxel_m: voxel,
+            ..FuseConfig::default()
+        },
+        ..ScanConfig::default()
+    };
+    let pb = crate::progress::bar(mapped.len() as u64, "frames fused");
+    if args.json {
+        pb.hide();
+    }
+    let t = Instant::now();
+    let scan = recon::scan(&ds, &mapped, &scan_cfg, &|| pb.inc(1))?;
+    pb.finish_and_clear();
+    for w in &scan.report.warnings {
+        say(&format!("    warning: {w}"));
+    }
+    scan.write(&glb, &args.data.display().to_string())?;
+    let scan_s = t.elapsed().as_secs_f64();
+    let to_world = scan.dataset_to_world;
+    let from_world = to_world.inverse();
+    let path: Vec<Pose> = mapped
+        .iter()
+        .map(|i| to_world.compose(&i.frame.pose))
+        .collect();
+
+    say("2/5 decoding the real held-out photos");
+    let photos: Vec<DynamicImage> = test
+        .par_iter()
+        .map(|i| data::frames::decode_image(&i.image))
+        .collect::<std::result::Result<_, _>>()?;
+
+    let epochs = |cfg: &mut TrainConfig| {
+        cfg.epochs = args.epochs.unwrap_or(if args.quick { 12 } else { 40 });
+        cfg.resume = true;
+    };
+    let mut methods = Vec::new();
+    let mut network = String::new();
+    let mut textured: Option<(Vec<Estimate>, PathBuf)> = None;
+    for (k, mode) in modes.iter().enumerate() {
+        say(&format!(
+            "3/5 [{}/{}] {renders} {mode} renders near the training path; the network on them",
+            k + 1,
+            modes.len()
+        ));
+        let render_mode: RenderMode = mode.parse().map_err(crate::LabError::msg)?;
+        let data_dir = args.out.join(mode).join("renders");
+        let synth_cfg = SynthConfig {
+            world: WorldSource::File {
+                path: glb.clone(),
+                options: ImportOptions::default(),
+            },
+            sampler: Sampler::Near {
+                poses: path.clone(),
+                radius_m: NEAR_RADIUS_M,
+                angle_deg: NEAR_ANGLE_DEG,
+            },
+            frames: renders,
+            sequences: SEQUENCES,
+            width: RENDER_SIZE.0,
+            height: RENDER_SIZE.1,
+            mode: render_mode,
+            intrinsics: Some(camera),
+            planes: false,
+            depth: false,
+            force: true,
+            ..SynthConfig::default()
+        };
+        let t = Instant::now();
+        render(&synth_cfg, &data_dir, args.json)?;
+        render_s += t.elapsed().as_secs_f64();
+        let model = args.out.join(mode).join("model");
+        let mut cfg = TrainConfig::for_real_photos(&data_dir, &model);
+        epochs(&mut cfg);
+        let t = Instant::now();
+        let summary = train_with_progress(&cfg, !args.json)?;
+        train_s += t.elapsed().as_secs_f64();
+        network = format!("{} ({} epochs)", cfg.arch, cfg.epochs);
+        let loc = Localizer::load(&model)?;
+        let estimates = predict(&loc, &photos, Some(render_mode), args.mc)?;
+        methods.push(Method {
+            method: "network",
+            training: "renders",
+            render_type: (*mode).into(),
+            refined: false,
+            poses: estimates
+                .iter()
+                .map(|e| from_world.compose(&e.pose))
+                .collect(),
+            training_frames: renders,
+            val_median_pos_m: Some(summary.val_median_pos_m),
+        });
+        if *mode == "textured" {
+            textured = Some((estimates, model));
+        }
+    }
+
+    say("4/5 the same recipe on the real training photos");
+    let real_model = args.out.join("real").join("model");
+    let mut cfg = TrainConfig::for_real_photos(&args.data, &real_model);
+    cfg.blocks = args.blocks;
+    epochs(&mut cfg);
+    let t = Instant::now();
+    let summary = train_with_progress(&cfg, !args.json)?;
+    train_s += t.elapsed().as_secs_f64();
+    let loc = Localizer::load(&real_model)?;
+    let real = predict(&loc, &photos, None, args.mc)?;
+    methods.push(Method {
+        method: "network",
+        training: "real",
+        render_type: "photo".into(),
+        refined: false,
+        poses: real.iter().map(|e| e.pose).collect(),
+        training_frames: mapped.len(),
+        val_median_pos_m: Some(summary.val_median_pos_m),
+    });
+
+    let t = Instant::now();
+    let mut map_render_s = 0.0;
+    if let Some((estimates, _)) = &textured {
+        say("5/5 a keyframe map of renders (rendered depth) refining the renders-only network");
+        let (km, seconds) = render_map(args, &glb, &path, &camera)?;
+        map_render_s = seconds;
+        render_s += seconds;
+        let cfg = RefineConfig::default();
+        for (method, with_network) in [("map", false), ("network+map", true)] {
+            let poses = photos
+                .iter()
+                .zip(estimates)
+                .map(|(img, e)| {
+                    let coarse = with_network.then_some(Coarse {
+                        pose: e.pose,
+                        sigma_pos_m: e.sigma_pos_m,
+                    });
+                    let refined = km.refine(img, coarse.as_ref(), &cfg)?;
+                    Ok(from_world.compose(&refined.pose))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            methods.push(Method {
+                method,
+                training: "renders",
+                render_type: "textured".into(),
+                refined: true,
+                poses,
+                training_frames: if with_network { renders } else { path.len() },
+                val_median_pos_m: None,
+            });
+        }
+    }
+
+    let map_s = t.elapsed().as_secs_f64() - map_render_s;
+    let rows = methods
+        .iter()
+        .map(|m| row(m, &truth))
+        .collect::<Result<Vec<_>>>()?;
+    let mut out = StudyOutput {
+        dataset: ds.name(),
+        split: ds.describe_split(plan),
+        train_frames: mapped.len(),
+        test_frames: test.len(),
+        scan: glb.clone(),
+        scan_triangles: scan.textured.triangle_count(),
+        scan_voxel_m: voxel,
+        network,
+        rows,
+        report: args.out.join("report.html"),
+        scan_s,
+        render_s,
+        train_s,
+        map_s,
+        total_s: 0.0,
+    };
+    let shown = textured.as_ref().map(|(e, _)| {
+        e.iter()
+            .map(|x| from_world.compose(&x.pose))
+            .collect::<Vec<_>>()
+    });
+    write_report(
+        &out,
+        &Evidence {
+            glb: &glb,
+            to_world: &to_world,
+            camera: &camera,
+            photos: &photos,
+            names: &test
+                .iter()
+                .map(|i| i.frame.name.clone())
+                .collect::<Vec<_>>(),
+            truth: &truth,
+            estimates: shown.as_deref(),
+        },
+    )?;
+    out.total_s = start.elapsed().as_secs_f64();
+    if args.json {
+        print_json(sink, &out)
+    } else {
+        print_text(
+            sink,
+            &format!(
+                "{}\n{}: scan of {} training frames ({} triangles, {} cm voxels), {} real test \
+                 frames ({}); network {}\nreport: {}\n",
+                table(&out.rows).to_text(),
+                out.dataset,
+                out.train_frames,
+                out.scan_triangles,
+                100.0 * out.scan_voxel_m,
+                out.test_frames,
+                out.split,
+                out.network,
+                out.report.display()
+            ),
+        )
+    }
+}
+
+/// Renders `cfg` into `dir` with a progress bar.
+fn render(cfg: &SynthConfig, dir: &Path, quiet: bool) -> Result<()> {
+    let pb = crate::progress::bar(cfg.frames as u64, "renders");
+    if quiet {
+        pb.hide();
+    }
+    synth::dataset::run(cfg, dir, &|done| pb.set_position(done as u64))?;
+    pb.finish_and_clear();
+    Ok(())
+}
+
+/// The network's estimates for the photos, turned into `mode`'s kind of image first.
+fn predict(
+    loc: &Localizer,
+    photos: &[DynamicImage],
+    mode: Option<RenderMode>,
+    mc: usize,
+) -> Result<Vec<Estimate>> {
+    let views = photos
+        .par_iter()
+        .map(|img| -> Result<imgproc::view::View> {
+            let img = match mode {
+                Some(m) => crate::demo::scene::photo_as(img.clone(), m)?,
+                None => img.clone(),
+            };
+            Ok(loc.view(&img)?)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(loc.predict_batch(&views, mc)?)
+}
+
+/// The keyframe map of textured renders, with their rendered depth, at the training frames' own
+/// poses and the photos' full size.
+fn render_map(
+    args: &SynthToRealConfig,
+    glb: &Path,
+    path: &[Pose],
+    camera: &Camera,
+) -> Result<(KeyframeMap, f64)> {
+    let dir = args.out.join("map-renders");
+    let cfg = SynthConfig {
+        world: WorldSource::File {
+            path: glb.to_path_buf(),
+            options: ImportOptions::default(),
+        },
+        sampler: Sampler::Near {
+            poses: path.to_vec(),
+            radius_m: 0.0,
+            angle_deg: 0.0,
+        },
+        frames: path.len(),
+        sequences: 1,
+        width: camera.width,
+        height: camera.height,
+        mode: RenderMode::Textured,
+        intrinsics: Some(*camera),
+        planes: false,
+        depth: true,
+        force: true,
+        ..SynthConfig::default()
+    };
+    let t = Instant::now();
+    render(&cfg, &dir, args.json)?;
+    let render_s = t.elapsed().as_secs_f64();
+    let rendered = posed::open(&dir)?;
+    let images: Vec<&PosedImage> = rendered.images.iter().collect();
+    let map_camera = rendered.require_camera()?;
+    let build = BuildConfig::default();
+    let pb = crate::progress::bar(
+        map::keyframes::select_keyframes(&images, &build).len() as u64,
+        "keyframes",
+    );
+    if args.json {
+        pb.hide();
+    }
+    let lifting = map::Lifting::depth_of(&rendered, &map_camera);
+    let km = map::keyframes::build(&images, &map_camera, &lifting, &build, &|| pb.inc(1))?;
+    pb.finish_and_clear();
+    Ok((km, render_s))
+}
+
+fn row(m: &Method, truth: &[Pose]) -> Result<Row> {
+    let (pos, rot): (Vec<f64>, Vec<f64>) = m
+        .poses
+        .iter()
+        .zip(truth)
+        .map(|(e, gt)| (position_error(gt, e), rotation_error_deg(gt, e)))
+        .unzip();
+    let within = |metres: f64, degrees: f64| {
+        pos.iter()
+            .zip(&rot)
+            .filter(|(p, r)| **p <= metres && **r <= degrees)
+            .count() as f64
+            / pos.len() as f64
+    };
+    let (p, r) = (Stats::of(&pos)?, Stats::of(&rot)?);
+    Ok(Row {
+        method: m.method,
+        training: m.training,
+        render_type: m.render_type.clone(),
+        refined: m.refined,
+        median_pos_m: p.median,
+        median_rot_deg: r.median,
+        mean_pos_m: p.mean,
+        mean_rot_deg: r.mean,
+        acc_25cm_2deg: within(0.25, 2.0),
+        acc_50cm_5deg: within(0.5, 5.0),
+        acc_5m_10deg: within(5.0, 10.0),
+        training_frames: m.training_frames,
+        val_median_pos_m: m.val_median_pos_m,
+    })
+}
+
+fn table(rows: &[Row]) -> Table {
+    let mut t = Table::new(
+        "Trained on renders of a scan, tested on real photos",
+        [
+            "method",
+            "training",
+            "render type",
+            "median (m)",
+            "median (°)",
+            "mean (m)",
+            "≤ 0.25 m, 2°",
+            "≤ 0.5 m, 5°",
+            "≤ 5 m, 10°",
+            "images",
+        ],
+    );
+    let pct = |f: f64| format!("{:.1} %", 100.0 * f);
+    for r in rows {
+        t.push_row([
+            r.method.to_string(),
+            r.training.to_string(),
+            r.render_type.clone(),
+            format!("{:.3}", r.median_pos_m),
+            format!("{:.2}", r.median_rot_deg),
+            format!("{:.3}", r.mean_pos_m),
+            pct(r.acc_25cm_2deg),
+            pct(r.acc_50cm_5deg),
+            pct(r.acc_5m_10deg),
+            r.training_frames.to_string(),
+        ]);
+    }
+    t
+}
+
+/// What the report draws besides the table.
+struct Evidence<'a> {
+    glb: &'a Path,
+    to_world: &'a Pose,
+    camera: &'a Camera,
+    photos: &'a [DynamicImage],
+    names: &'a [String],
+    truth: &'a [Pose],
+    /// The textured renders-only network's poses (dataset frame), when it ran.
+    estimates: Option<&'a [Pose]>,
+}
+
+fn write_report(out: &StudyOutput, ev: &Evidence<'_>) -> Result<()> {
+    let mut page = HtmlReport::new(format!(
+        "Renders of a scan, tested on photos: {}",
+        out.dataset
+    ));
+    page.paragraph(format!(
+        "The {} training frames were fused into a mesh ({} triangles at {} cm voxels); the \
+         networks of the 'renders' rows never saw a real photo: they trained on renders of that \
+         mesh near the training frames' path and chose their epoch on held-out renders. They are \
+         tested on the {} real held-out frames ({}). The 'real' row is the same recipe trained \
+         on the real training photos; the refined row matches each photo against a keyframe map \
+         built from renders and their rendered depth.",
+        out.train_frames,
+        out.scan_triangles,
+        100.0 * out.scan_voxel_m,
+        out.test_frames,
+        out.split
+    ));
+    page.table(&table(&out.rows));
+    if let Some(estimates) = ev.estimates {
+        page.png(
+            &render_sheet(ev, estimates)?,
+            "Real held-out photos (left), the scan rendered at their true pose (middle) and at \
+             the textured renders-only network's estimate (right).",
+        );
+    }
+    page.write(&out.report)?;
+    Ok(())
+}
+
+/// [`SHOWN`] evenly spaced test photos beside renders from their true and estimated poses.
+fn render_sheet(ev: &Evidence<'_>, estimates: &[Pose]) -> Result<Vec<u8>> {
+    let (world, _) = synth::import::load(ev.glb, &ImportOptions::default())?;
+    let scene = RenderScene::new(&world)?;
+    let camera = ev.camera.resized(RENDER_SIZE.0, RENDER_SIZE.1);
+    let mut renderer = Renderer::new();
+    let opts = RenderOptions::default();
+    let mut tiles = Vec::new();
+    let n = ev.photos.len();
+    for s in 0..SHOWN.min(n) {
+        let i = s * n / SHOWN.min(n);
+        let photo = ev.photos[i]
+            .resize_exact(
+                RENDER_SIZE.0,
+                RENDER_SIZE.1,
+                image::imageops::FilterType::Triangle,
+            )
+            .to_rgb8();
+        tiles.push(Tile {
+            label: ev.names[i].clone(),
+            image: photo,
+        });
+        for (label, pose) in [("true pose", ev.truth[i]), ("estimate", estimates[i])] {
+            let world_pose = ev.to_world.compose(&pose);
+            let img = renderer
+                .render(&scene, &camera, &world_pose, &opts, &[])?
+                .rgb
+                .clone();
+            let label = if label == "estimate" {
+                format!(
+                    "estimate: {:.2} m, {:.1}°",
+                    position_error(&ev.truth[i], &pose),
+                    rotation_error_deg(&ev.truth[i], &pose)
+                )
+            } else {
+                label.to_string()
+            };
+            tiles.push(Tile { label, image: img });
+        }
+    }
+    Ok(report::contact_sheet("Photos and renders", &tiles, 3)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_dataset_without_depth_is_refused_before_anything_is_trained() -> Result<()> {
+        let data = tempfile::tempdir()?;
+        let cfg = SynthConfig {
+            frames: 40,
+            sequences: 1,
+            width: 64,
+            height: 48,
+            depth: false,
+            planes: false,
+            ..SynthConfig::default()
+        };
+        synth::dataset::run(&cfg, data.path(), &|_| {})?;
+        let out = tempfile::tempdir()?;
+        let args = SynthToRealConfig {
+            data: data.path().to_path_buf(),
+            blocks: Some("10:4".parse().map_err(crate::LabError::msg)?),
+            out: out.path().to_path_buf(),
+            quick: true,
+            modes: Vec::new(),
+            renders: None,
+            voxel: None,
+            epochs: None,
+            mc: 0,
+            json: true,
+        };
+        let err = run(&args, &mut crate::output::Collected::default())
+            .err()
+            .ok_or_else(|| crate::LabError::msg("a scan without depth was accepted"))?;
+        let msg = crate::error::chain(&err);
+        assert!(msg.contains("no depth image"), "{msg}");
+        assert!(!out.path().join("textured").exists());
+        Ok(())
+    }
+}
