@@ -4,10 +4,10 @@
 //! truncated signed distance volume ([`volume`]), with the colour frames' colours averaged per
 //! voxel; its zero surface is extracted as a coloured triangle mesh ([`extract`], naive surface
 //! nets), simplified ([`simplify`]), levelled so that z points up ([`level`]), textured from the
-//! volume's colours ([`atlas`]) and written as glTF binary and PLY ([`write`]). `synth` imports
+//! volume's colours ([`atlas`]) and written as glTF binary and PLY ([`mod@write`]). `synth` imports
 //! the GLB like any building model and renders it.
 //!
-//! [`scan`] runs the whole chain; each stage is public for callers that need one step.
+//! [`scan()`] runs the whole chain; each stage is public for callers that need one step.
 
 pub mod atlas;
 mod error;
