@@ -41,9 +41,9 @@ impl Preview {
     }
 }
 
-/// Renders the preview: one row per variant, one column per render mode. The pose is a walk's frame number
-/// `PREVIEW_FRAME`, or with [`Sampler::Near`] the path's first pose as it is (a scan
-/// seen exactly as its own camera saw it).
+/// Renders the preview: one row per variant, one column per render mode. The pose is a walk's
+/// frame number `PREVIEW_FRAME`, or with [`Sampler::Near`] the path's first pose as it is (a
+/// scan seen exactly as its own camera saw it).
 pub fn render(cfg: &SynthConfig) -> Result<Preview> {
     let rig = rig_of(cfg.camera);
     let camera = camera_of(cfg, &rig)?;
