@@ -76,15 +76,15 @@ pub struct SynthToRealConfig {
     /// Render types to train on (default: textured, shaded, gradmag, edges).
     #[arg(long, value_delimiter = ',', value_parser = MODES)]
     modes: Vec<String>,
-    /// Renders per type, a fifth of them for validation and a fifth unused (default 2000, 800
-    /// with --quick).
+    /// Renders per type, a fifth of them for validation and a fifth unused (default 1500, 400
+    /// with --quick; extracting the frozen backbone's features is most of the study's time).
     #[arg(long)]
     renders: Option<usize>,
     /// Voxel of the scan, metres (default 0.01, 0.02 with --quick).
     #[arg(long)]
     voxel: Option<f64>,
-    /// The networks' epochs (default 40, 12 with --quick; the real-photo recipe's 150 would
-    /// take an hour for five networks).
+    /// The networks' epochs (default 30, 10 with --quick; the real-photo recipe's 150 would
+    /// take over an hour for five networks).
     #[arg(long)]
     epochs: Option<usize>,
     /// Monte-Carlo-dropout passes per frame.
@@ -168,7 +168,7 @@ pub fn run(args: &SynthToRealConfig, sink: &mut dyn crate::Output) -> Result<()>
     } else {
         args.modes.iter().map(String::as_str).collect()
     };
-    let renders = args.renders.unwrap_or(if args.quick { 800 } else { 2000 });
+    let renders = args.renders.unwrap_or(if args.quick { 400 } else { 1500 });
     let voxel = args.voxel.unwrap_or(if args.quick { 0.02 } else { 0.01 });
     let start = Instant::now();
     let (mut render_s, mut train_s) = (0.0, 0.0);
@@ -236,7 +236,7 @@ pub fn run(args: &SynthToRealConfig, sink: &mut dyn crate::Output) -> Result<()>
         .collect::<std::result::Result<_, _>>()?;
 
     let epochs = |cfg: &mut TrainConfig| {
-        cfg.epochs = args.epochs.unwrap_or(if args.quick { 12 } else { 40 });
+        cfg.epochs = args.epochs.unwrap_or(if args.quick { 10 } else { 30 });
         cfg.resume = true;
     };
     let mut methods = Vec::new();
