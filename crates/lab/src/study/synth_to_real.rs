@@ -62,8 +62,8 @@ pub struct SynthToRealConfig {
     /// Blocks of consecutive frames, BLOCK:EVERY[:OFFSET], instead of the dataset's own split.
     #[arg(long, value_name = "BLOCK:EVERY[:OFFSET]")]
     blocks: Option<BlockSplit>,
-    /// Folder for the scan, the renders, the models and `report.html` (renders and models made
-    /// before with the same settings are reused).
+    /// Folder for the scan, the renders, the models and `report.html` (the scan and the renders
+    /// are made again, the same for the same settings; models trained there before are resumed).
     #[arg(
         long,
         value_name = "DIR",
