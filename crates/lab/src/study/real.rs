@@ -371,7 +371,7 @@ fn feature_retrieval(
 }
 
 /// The keyframe map of the mapped frames and its build time, when every one has depth.
-fn keyframe_map(
+pub(super) fn keyframe_map(
     ds: &posed::PosedDataset,
     mapped: &[&PosedImage],
     show: bool,

@@ -25,11 +25,11 @@ use clap::Args;
 use data::blocks::BlockSplit;
 use data::native::SplitName;
 use data::posed::{self, PosedImage, SplitPlan};
-use geom::metrics::{Stats, position_error, rotation_error_deg};
+use geom::metrics::{PoseEvaluation, position_error, rotation_error_deg};
 use geom::{Camera, Pose};
 use image::DynamicImage;
 use learn::{Estimate, Localizer, TrainConfig};
-use map::{BuildConfig, Coarse, KeyframeMap, RefineConfig};
+use map::{Coarse, KeyframeMap, RefineConfig};
 use rayon::prelude::*;
 use recon::{FuseConfig, ScanConfig};
 use report::{HtmlReport, Table, Tile};
@@ -484,36 +484,15 @@ fn render_map(
     let render_s = t.elapsed().as_secs_f64();
     let rendered = posed::open(&dir)?;
     let images: Vec<&PosedImage> = rendered.images.iter().collect();
-    let map_camera = rendered.require_camera()?;
-    let build = BuildConfig::default();
-    let pb = crate::progress::bar(
-        map::keyframes::select_keyframes(&images, &build).len() as u64,
-        "keyframes",
-    );
-    if args.json {
-        pb.hide();
-    }
-    let lifting = map::Lifting::depth_of(&rendered, &map_camera);
-    let km = map::keyframes::build(&images, &map_camera, &lifting, &build, &|| pb.inc(1))?;
-    pb.finish_and_clear();
+    let Some((km, _)) = super::real::keyframe_map(&rendered, &images, !args.json)? else {
+        bail!("{}: the renders of the map have no depth", dir.display());
+    };
     Ok((km, render_s))
 }
 
 fn row(m: &Method, truth: &[Pose]) -> Result<Row> {
-    let (pos, rot): (Vec<f64>, Vec<f64>) = m
-        .poses
-        .iter()
-        .zip(truth)
-        .map(|(e, gt)| (position_error(gt, e), rotation_error_deg(gt, e)))
-        .unzip();
-    let within = |metres: f64, degrees: f64| {
-        pos.iter()
-            .zip(&rot)
-            .filter(|(p, r)| **p <= metres && **r <= degrees)
-            .count() as f64
-            / pos.len() as f64
-    };
-    let (p, r) = (Stats::of(&pos)?, Stats::of(&rot)?);
+    let ev = PoseEvaluation::of(truth, &m.poses)?;
+    let (p, r) = (&ev.position, &ev.rotation_deg);
     Ok(Row {
         method: m.method,
         training: m.training,
@@ -523,9 +502,9 @@ fn row(m: &Method, truth: &[Pose]) -> Result<Row> {
         median_rot_deg: r.median,
         mean_pos_m: p.mean,
         mean_rot_deg: r.mean,
-        acc_25cm_2deg: within(0.25, 2.0),
-        acc_50cm_5deg: within(0.5, 5.0),
-        acc_5m_10deg: within(5.0, 10.0),
+        acc_25cm_2deg: ev.accuracy_at(0.25, 2.0),
+        acc_50cm_5deg: ev.accuracy_at(0.5, 5.0),
+        acc_5m_10deg: ev.accuracy_at(5.0, 10.0),
         training_frames: m.training_frames,
         val_median_pos_m: m.val_median_pos_m,
     })
