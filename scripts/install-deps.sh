@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Installs the Debian/Ubuntu packages indoorloc builds against, only those missing (idempotent):
 # FFmpeg's libraries for video frame sources and camera devices (crate ffmpeg-next), clang and
-# pkg-config for its bindings, and Chromium for the dashboard's browser test.
+# pkg-config for its bindings, g++ for meshoptimizer's C++ (crate meshopt, the scan's mesh
+# simplification), and Chromium for the dashboard's browser test.
 # Everything else comes from crates.io through cargo.
 set -euo pipefail
-packages=(pkg-config clang libclang-dev libavcodec-dev libavformat-dev libavutil-dev libswscale-dev libavdevice-dev
+packages=(pkg-config clang libclang-dev g++ libavcodec-dev libavformat-dev libavutil-dev libswscale-dev libavdevice-dev
     chromium chromium-driver)
 missing=()
 for p in "${packages[@]}"; do
