@@ -23,6 +23,10 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Where the networks run (train, localize, demo, study, bench, serve, explain): cpu, or
+    /// wgpu / wgpu:N (the N-th discrete GPU) in a build with the `wgpu` feature.
+    #[arg(long, global = true, value_name = "DEVICE", default_value = "cpu")]
+    device: lab::device::ComputeDevice,
 }
 
 #[derive(Subcommand, Debug)]
@@ -66,6 +70,10 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     lab::progress::set_reporter(Box::new(progress::Terminal));
     let mut out = output::Stdout(std::io::stdout());
+    if let Err(err) = lab::device::select(cli.device) {
+        eprintln!("indoorloc: {}", one_line(&lab::error::chain(&err)));
+        return ExitCode::from(2);
+    }
     let result = match cli.command {
         Command::Demo(args) => lab::demo::run(&args, &mut out),
         Command::Eval(args) => lab::eval::run(&args, &mut out),

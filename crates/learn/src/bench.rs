@@ -11,7 +11,7 @@
 use std::time::Instant;
 
 use burn::optim::{AdamConfig, GradientsParams};
-use burn::tensor::{Device, Distribution, Tensor};
+use burn::tensor::{Distribution, Tensor};
 use geom::Mount;
 
 use crate::Result;
@@ -39,7 +39,7 @@ pub fn train_step_ms(
     warmup: usize,
     steps: usize,
 ) -> Result<Vec<f64>> {
-    let device = Device::flex().autodiff();
+    let device = crate::device::training();
     let [c, h, w] = input;
     let mut net = net_config(arch, c).init(&device, 0)?;
     let coding = PoseCoding {
@@ -70,7 +70,7 @@ pub fn train_step_ms(
 
 /// Milliseconds per single-image inference of `arch` on one `[1, C, H, W]` image.
 pub fn infer_ms(arch: Arch, input: [usize; 3], warmup: usize, runs: usize) -> Result<Vec<f64>> {
-    let device = Device::flex();
+    let device = crate::device::inference();
     let [c, h, w] = input;
     // As `Localizer` runs it: BatchNorm folded into the convolutions.
     let net = net_config(arch, c).init(&device, 0)?.fold_batchnorm();

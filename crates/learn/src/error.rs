@@ -49,6 +49,9 @@ pub enum LearnError {
     /// Input that the model cannot take (wrong view size, no images, ...).
     #[error("invalid input: {0}")]
     Input(String),
+    /// The compute device asked for is not built in or does not answer.
+    #[error("device {0}")]
+    Device(String),
     /// Training produced a non-finite loss.
     #[error("training diverged: {0}")]
     Diverged(String),

@@ -58,7 +58,7 @@ pub struct Explainer {
 impl Explainer {
     /// Loads the checkpoint folder `dir` (as [`crate::Localizer::load`] does).
     pub fn load(dir: &Path) -> Result<Explainer> {
-        let device = Device::flex().autodiff();
+        let device = crate::device::training();
         let meta = ModelMeta::read(dir)?;
         let bytes = checkpoint::read_checked(dir, MODEL_BPK, &meta.weights_hash)?;
         let net = checkpoint::load_weights(&meta.net, bytes, &device, &dir.join(MODEL_BPK))?;

@@ -80,10 +80,11 @@ pub struct Localizer {
 }
 
 impl Localizer {
-    /// Loads the checkpoint folder `dir` (its `model.toml` and `model.bpk`) on the CPU (`flex`)
-    /// backend. A missing, damaged or inconsistent file is an error naming it.
+    /// Loads the checkpoint folder `dir` (its `model.toml` and `model.bpk`) on the process's
+    /// device ([`crate::device::select`]; the CPU by default). A missing, damaged or
+    /// inconsistent file is an error naming it.
     pub fn load(dir: &Path) -> Result<Localizer> {
-        Self::load_on(dir, Device::flex())
+        Self::load_on(dir, crate::device::inference())
     }
 
     /// [`Localizer::load`] on a chosen device.

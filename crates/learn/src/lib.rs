@@ -28,8 +28,9 @@
 //! training or checkpoints.
 //!
 //! # Backend
-//! burn 0.22 picks the backend by device: training runs on `Device::flex().autodiff()`,
-//! inference on `Device::flex()` (pure-Rust CPU, SIMD, threads from rayon's global pool).
+//! burn 0.22 picks the backend by device: by default training runs on
+//! `Device::flex().autodiff()`, inference on `Device::flex()` (pure-Rust CPU, SIMD, threads
+//! from rayon's global pool); [`device::select`] moves both to a GPU (feature `wgpu`).
 //!
 //! # Example
 //! ```no_run
@@ -48,6 +49,7 @@ pub mod calibrate;
 pub mod checkpoint;
 mod config;
 mod dataset;
+pub mod device;
 mod error;
 mod explain;
 mod hash;
@@ -70,6 +72,7 @@ pub mod window;
 pub use checkpoint::{EpochMetrics, ModelMeta};
 pub use config::{OptimizerKind, Schedule, TrainConfig};
 pub use dataset::HOLDOUT_EVERY;
+pub use device::ComputeDevice;
 pub use error::{LearnError, Result};
 pub use explain::{CamLayer, Explainer, Saliency};
 pub use head::{PoseCoding, Task};

@@ -307,7 +307,7 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
             data.train.len()
         )));
     }
-    let device = Device::flex().autodiff();
+    let device = crate::device::training();
     let resuming = cfg.resume && cfg.out.join(MODEL_TOML).is_file();
     let Start {
         mut meta,
@@ -346,7 +346,7 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
     let total_steps = steps * cfg.epochs;
     let [c, h, w] = [train_set.channels, train_set.height, train_set.width];
     let outputs = targets[0].len();
-    let plain = Device::flex();
+    let plain = crate::device::inference();
     while meta.epoch < cfg.epochs {
         let epoch = meta.epoch + 1;
         let t_epoch = Instant::now();
@@ -461,7 +461,7 @@ pub const PRETRAINED_VIEW: &str = "rgb320";
 /// The frozen layers' maps of the training and validation views (`None` without frozen
 /// layers), from the folded network, a chunk at a time.
 fn frozen_maps(net: &PoseNet, data: &TrainData) -> Result<Option<(Samples, Samples)>> {
-    let plain = Device::flex();
+    let plain = crate::device::inference();
     let frozen = net.valid().fold_batchnorm();
     let maps = |samples: &Samples| -> Result<Option<Samples>> {
         let mut inputs = Vec::new();

@@ -1,12 +1,16 @@
-//! `indoorloc bench train` and `indoorloc bench infer`: the small network's training step (batch
-//! 32, at 1x120x160 and 3x256x256) and single-image inference (1x120x160 and 3x256x256, one
-//! thread and all threads), beside PyTorch running `torch_apr.py --arch small` with the same
-//! settings in the same run.
+//! `indoorloc bench train` and `indoorloc bench infer`: a network's training step (batch 32, at
+//! 1x120x160 and 3x256x256) and single-image inference (1x120x160 and 3x256x256, one thread
+//! and all threads), beside PyTorch running `torch_apr.py --arch ARCH` with the same settings
+//! in the same run (the small network by default; `--arch` picks another).
+//!
+//! On a GPU (`--device wgpu`) each input is measured once, as CPU threads do not count there,
+//! and the CPU peer is not run: PyTorch on the same GPU is `scripts/gpu/torch_gpu.py`, which
+//! `scripts/gpu/check.sh` runs beside this benchmark.
 
 use super::peer::{Peer, VsPeer};
 use crate::{Context, Result};
-use learn::Arch;
 use learn::bench::{infer_ms, train_step_ms};
+use learn::{Arch, ComputeDevice};
 use serde::Serialize;
 use std::process::Command;
 
@@ -22,7 +26,9 @@ const WARMUP: usize = 3;
 pub struct LearnFigures {
     /// `train` (ms per step of a batch) or `infer` (ms per image).
     what: &'static str,
-    arch: &'static str,
+    arch: String,
+    /// `cpu`, or the GPU's name (`wgpu: NVIDIA H100 80GB HBM3`).
+    device: String,
     /// `[C, H, W]`.
     input: [usize; 3],
     /// Batch size (1 for inference).
@@ -53,6 +59,7 @@ fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> Result<T
 /// `torch_apr.py`'s JSON for one input shape and thread count.
 fn torch(
     peer: &Peer,
+    arch: Arch,
     input: [usize; 3],
     threads: usize,
     steps: usize,
@@ -61,7 +68,7 @@ fn torch(
     let [c, h, w] = input;
     let out = Command::new(&peer.python)
         .arg(peer.dir.join("torch_apr.py"))
-        .args(["--arch", "small", "--batch", &BATCH.to_string()])
+        .args(["--arch", arch.name(), "--batch", &BATCH.to_string()])
         .args([
             "--channels",
             &c.to_string(),
@@ -95,9 +102,13 @@ fn torch(
     serde_json::from_slice(&out.stdout).context("torch_apr.py printed no JSON")
 }
 
-/// Measures `train` rows (`with_train`) and `infer` rows (`with_infer`) with `steps` timed
-/// training steps and `runs` timed inferences each.
+/// The networks `torch_apr.py` builds.
+const PEER_ARCHS: [Arch; 2] = [Arch::Small, Arch::Resnet18];
+
+/// Measures `train` rows (`with_train`) and `infer` rows (`with_infer`) of `arch` with `steps`
+/// timed training steps and `runs` timed inferences each, on the process's device.
 pub fn bench(
+    arch: Arch,
     with_train: bool,
     with_infer: bool,
     steps: usize,
@@ -105,8 +116,20 @@ pub fn bench(
     peer: Result<Peer>,
 ) -> Result<Vec<LearnFigures>> {
     let all = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let mut thread_counts = vec![1, all];
+    let compute = learn::device::selected();
+    let on_gpu = compute != ComputeDevice::Cpu;
+    let mut thread_counts = if on_gpu { vec![all] } else { vec![1, all] };
     thread_counts.dedup();
+    let device = learn::device::describe();
+    let peer = if on_gpu {
+        Err(crate::err!(
+            "torch_apr.py runs on the CPU; PyTorch on this GPU is scripts/gpu/torch_gpu.py"
+        ))
+    } else if !PEER_ARCHS.contains(&arch) {
+        Err(crate::err!("torch_apr.py has no {arch}"))
+    } else {
+        peer
+    };
     let mut rows = Vec::new();
     for input in INPUTS {
         for &threads in &thread_counts {
@@ -114,7 +137,7 @@ pub fn bench(
             let train = with_train && threads == all;
             let (peer_json, peer_note) = match &peer {
                 Ok(p) if train || with_infer => {
-                    match torch(p, input, threads, if train { steps } else { 1 }, runs) {
+                    match torch(p, arch, input, threads, if train { steps } else { 1 }, runs) {
                         Ok(v) => (Some(v), None),
                         Err(e) => (None, Some(format!("{e:#}"))),
                     }
@@ -126,7 +149,8 @@ pub fn bench(
             let mut row = |what, batch, ms: f64, peer: Option<f64>| {
                 rows.push(LearnFigures {
                     what,
-                    arch: "small",
+                    arch: arch.to_string(),
+                    device: device.clone(),
                     input,
                     batch,
                     threads,
@@ -136,13 +160,13 @@ pub fn bench(
             };
             if train {
                 let ms = median(on_threads(threads, || {
-                    train_step_ms(Arch::Small, input, BATCH, WARMUP, steps)
+                    train_step_ms(arch, input, BATCH, WARMUP, steps)
                 })??);
                 row("train", BATCH, ms, peer_ms("train_ms_per_step"));
             }
             if with_infer {
                 let ms = median(on_threads(threads, || {
-                    infer_ms(Arch::Small, input, WARMUP, runs)
+                    infer_ms(arch, input, WARMUP, runs)
                 })??);
                 row("infer", 1, ms, peer_ms("infer_ms_per_image"));
             }
@@ -156,10 +180,11 @@ pub fn table(rows: &[LearnFigures]) -> String {
     if rows.is_empty() {
         return String::new();
     }
-    let mut text = format!(
+    let mut text = format!("{} on {}\n", rows[0].arch, rows[0].device);
+    text.push_str(&format!(
         "{:<7}{:>12}{:>7}{:>9}{:>11}{:>11}{:>9}\n",
         "learn", "input", "batch", "threads", "ms", "PyTorch", "ratio"
-    );
+    ));
     for r in rows {
         let [c, h, w] = r.input;
         text.push_str(&format!(

@@ -34,10 +34,11 @@ pub enum Stage {
     Render,
     /// Image views on one thread (160x120 gray + CLAHE, 256x256 [-1, 1]), against OpenCV.
     Preprocess,
-    /// ms per training step of the small network (batch 32, 1x120x160 and 3x256x256), against
-    /// PyTorch (torch_apr.py).
+    /// ms per training step of a network (`--arch`, small by default; batch 32, 1x120x160 and
+    /// 3x256x256) on the process's device (`--device`), against PyTorch (torch_apr.py).
     Train,
-    /// ms per single-image inference of the small network, 1 thread and all, against PyTorch.
+    /// ms per single-image inference of a network (`--arch`), 1 thread and all (once on a
+    /// GPU), against PyTorch.
     Infer,
     /// Scene-cut detection frames/s on a 320x240 video, against PySceneDetect and decoding
     /// alone; hard-cut F1 on the shared clips beside PySceneDetect's.
@@ -81,6 +82,10 @@ pub struct BenchConfig {
     /// ../shared/data/scenecut_real/opencv_samples_cuts.mp4).
     #[arg(long, value_name = "FILE")]
     video: Option<PathBuf>,
+    /// Network of the train and infer benchmarks (small, resnet18, resnet34, googlenet,
+    /// mobilenetv2; PyTorch's figures for small and resnet18).
+    #[arg(long, default_value = "small")]
+    arch: ::learn::Arch,
     /// Timed training steps per input size in the train benchmark.
     #[arg(long, default_value_t = 10)]
     train_steps: usize,
@@ -206,6 +211,7 @@ pub fn run(args: &BenchConfig, sink: &mut dyn crate::Output) -> Result<()> {
             // Both learn stages are measured together, sharing PyTorch's runs.
             Stage::Train | Stage::Infer if out.learn.is_empty() => {
                 out.learn = learn::bench(
+                    args.arch,
                     train,
                     infer,
                     args.train_steps,

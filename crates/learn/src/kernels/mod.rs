@@ -16,8 +16,8 @@ use burn::tensor::{DType, Tensor};
 
 pub use ext::FastOps;
 
-/// Whether the kernels can take these tensors: f32 on a `flex` device (the only backend this
-/// crate builds). Callers fall back to burn's own ops otherwise.
+/// Whether the kernels can take these tensors: f32 on a `flex` device. Callers fall back to
+/// burn's own ops otherwise, as on a GPU (`crate::device`).
 pub fn supported<const D: usize>(x: &Tensor<D>) -> bool {
     x.dtype() == DType::F32
         && matches!(

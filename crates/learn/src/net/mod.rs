@@ -247,7 +247,7 @@ pub fn plane_grid(arch: Arch, input: [usize; 3]) -> Result<[usize; 2]> {
             "input channels must be 1 or 3, not {c}"
         )));
     }
-    let device = Device::flex();
+    let device = crate::device::inference();
     let backbone = Backbone::new(arch, c, &device);
     let (mid, _) = backbone.forward_mid(Tensor::zeros([1, c, h, w], &device));
     let [_, _, gh, gw] = mid.dims();

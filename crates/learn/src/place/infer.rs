@@ -57,10 +57,10 @@ pub struct PlaceLocalizer {
 }
 
 impl PlaceLocalizer {
-    /// Loads `dir/place.toml` and `dir/place.bpk` on the CPU.
+    /// Loads `dir/place.toml` and `dir/place.bpk` on the process's device (the CPU by default).
     pub fn load(dir: &Path) -> Result<PlaceLocalizer> {
         let meta = PlaceMeta::read(dir)?;
-        let device = Device::flex();
+        let device = crate::device::inference();
         let bytes = checkpoint::read_checked(dir, PLACE_BPK, &meta.weights_hash)?;
         let net = checkpoint::load_into(meta.net.init(&device, 0)?, bytes, &dir.join(PLACE_BPK))?;
         let spec = ViewSpec::resolve(&meta.view)

@@ -219,8 +219,8 @@ pub fn train_place(
             train.len()
         )));
     }
-    let device = Device::flex().autodiff();
-    let plain = Device::flex();
+    let device = crate::device::training();
+    let plain = crate::device::inference();
     let input = [train.channels, train.height, train.width];
     let net_cfg = PlaceNetConfig {
         arch: cfg.arch,

@@ -419,8 +419,8 @@ pub fn train_sequence(cfg: &SeqConfig, progress: &mut dyn FnMut(&SeqEvent)) -> R
     };
     let beta = cfg.beta.unwrap_or(base_meta.config.beta);
     let dropout = cfg.dropout.unwrap_or(base_meta.dropout);
-    let device = Device::flex().autodiff();
-    let plain = Device::flex();
+    let device = crate::device::training();
+    let plain = crate::device::inference();
     let resuming = cfg.resume && SeqMeta::exists(&cfg.model);
     let Start {
         mut meta,
