@@ -3,8 +3,9 @@
 # run from the repository root with a release binary built elsewhere with the `wgpu` feature:
 #
 #   here:   CARGO_TARGET_DIR=target-gpu cargo build --release --features wgpu -p indoorloc
-#           mkdir -p gpu-bin && cp target-gpu/release/indoorloc gpu-bin/ && strip gpu-bin/indoorloc
-#   there:  bash scripts/gpu/check.sh gpu-bin/indoorloc      (carry: gpu-bin)
+#           mkdir -p gpu-bin && strip -o gpu-bin/indoorloc target-gpu/release/indoorloc
+#           xz -T2 -6 -f gpu-bin/indoorloc        # 95 MB stripped, ~20 MB packed: carry takes 64 MiB
+#   there:  bash scripts/gpu/check.sh gpu-bin/indoorloc.xz   (carry: gpu-bin)
 #
 # It writes under $OUT (or ./gpu-check): the GPU and Vulkan driver found, `indoorloc bench train`
 # and `bench infer` on the GPU for the small network and ResNet-34 (batch 32, 1x120x160 and
@@ -12,13 +13,21 @@
 # `demo --quick` trained on the GPU and on the CPU for each seed in $SEEDS, and summary.md with
 # the ratios. Every step appends to its files as it ends, so a run cut short keeps what it did.
 set -uo pipefail
-bin=${1:-gpu-bin/indoorloc}
+bin=${1:-gpu-bin/indoorloc.xz}
 out=${OUT:-gpu-check}
 seeds=${SEEDS:-"1 2"}
 steps=${STEPS:-20}
 mkdir -p "$out"
 log() { echo "[$(date +%T)] $*" | tee -a "$out/log.txt"; }
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+if [[ $bin == *.xz ]]; then
+    unpacked=$(mktemp -d)/indoorloc
+    xz -dc "$bin" > "$unpacked" 2>/dev/null \
+        || python3 -c 'import lzma, sys, shutil; shutil.copyfileobj(lzma.open(sys.argv[1]), open(sys.argv[2], "wb"))' "$bin" "$unpacked"
+    chmod +x "$unpacked"
+    bin=$unpacked
+fi
+log "indoorloc: $("$bin" --version 2>&1)"
 
 log "gpu: $(nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>&1)"
 # wgpu reaches the GPU through Vulkan: NVIDIA's Vulkan driver lives in libGLX_nvidia.so.0. A
@@ -68,40 +77,4 @@ for seed in $seeds; do
     done
 done
 
-python3 - "$out" <<'EOF'
-import glob, json, os, sys
-out = sys.argv[1]
-lines = ["# GPU check (issue 44)", ""]
-torch = [json.loads(l) for l in open(os.path.join(out, "torch.jsonl"))] if os.path.exists(os.path.join(out, "torch.jsonl")) else []
-def peer(arch, shape, key, bf16=False):
-    for t in torch:
-        if t["arch"] == arch and t["input"] == shape and t["bf16"] == bf16:
-            return t[key]
-lines += ["| what | network | input | indoorloc ms | PyTorch ms | PyTorch / indoorloc |", "|---|---|---|---|---|---|"]
-for path in sorted(glob.glob(os.path.join(out, "bench_*.json"))):
-    try:
-        rows = json.load(open(path))["learn"]
-    except Exception as e:
-        lines.append(f"| {os.path.basename(path)}: unreadable ({e}) |")
-        continue
-    for r in rows:
-        key = "train_ms_per_step" if r["what"] == "train" else "infer_ms_per_image"
-        p = peer(r["arch"], r["input"], key)
-        ratio = f"{p / r['ms']:.2f}x" if p else "-"
-        lines.append(f"| {r['what']} | {r['arch']} | {'x'.join(map(str, r['input']))} | {r['ms']:.2f} | {p and f'{p:.2f}' or '-'} | {ratio} |")
-        device = r["device"]
-lines += ["", f"device: {torch[0]['gpu'] if torch else '?'}; {torch[0]['peer'] if torch else ''}", ""]
-for t in torch:
-    if t["bf16"]:
-        lines.append(f"PyTorch bf16 autocast {t['arch']} {t['input']}: {t['train_ms_per_step']:.2f} ms per step")
-lines += ["", "| demo --quick | seed | median m | median ° | mean m | train s |", "|---|---|---|---|---|---|"]
-for path in sorted(glob.glob(os.path.join(out, "demo_*.json"))):
-    _, device, seed = os.path.basename(path)[:-5].split("_")
-    try:
-        d = json.load(open(path))
-        lines.append(f"| {device} | {seed} | {d['median_pos_m']:.4f} | {d['median_rot_deg']:.3f} | {d['mean_pos_m']:.4f} | {d['seconds'].get('train', float('nan')):.1f} |")
-    except Exception as e:
-        lines.append(f"| {device} | {seed} | failed: {e} |")
-open(os.path.join(out, "summary.md"), "w").write("\n".join(lines) + "\n")
-print("\n".join(lines))
-EOF
+python3 "$here/summary.py" "$out"

@@ -1,6 +1,7 @@
 //! Where the networks run: the CPU (burn's `flex` backend, with this crate's hand-written
-//! kernels for convolution and BatchNorm) or a GPU through burn's wgpu backend (SPIR-V on
-//! Vulkan, so NVIDIA, AMD and Intel GPUs alike), chosen once per process with [`select`].
+//! kernels for convolution and BatchNorm) or a GPU through burn's wgpu backend (WGSL kernels
+//! that wgpu hands to Vulkan on Linux, Metal on macOS, DX12 on Windows: NVIDIA, AMD, Intel and
+//! Apple GPUs alike), chosen once per process with [`select`].
 //!
 //! burn 0.22 picks the backend by device and every tensor carries its device, so the choice is
 //! a [`burn::tensor::Device`] that training, inference and the benchmarks start from; the
@@ -11,7 +12,10 @@
 //! The GPU backend is the cargo feature `wgpu` (off by default: it adds burn's cubecl stack,
 //! minutes of build time the CPU build does not need). burn's CUDA backend is not offered:
 //! cubecl-cuda 0.11 downloads an LLVM bundle from GitHub in its build script, which a build
-//! that reaches only package registries cannot do; on NVIDIA GPUs Vulkan serves instead.
+//! that reaches only package registries cannot do; on NVIDIA GPUs Vulkan serves instead. Nor is
+//! burn's SPIR-V compiler (its `vulkan` feature): Mesa's lavapipe, the Vulkan driver this was
+//! tested on without a GPU, crashes compiling its matrix-product kernels, where the WGSL path
+//! runs.
 
 use std::fmt;
 use std::panic::{self, AssertUnwindSafe};
