@@ -44,7 +44,11 @@ fn a_gpu_trains_and_its_checkpoint_answers_alike_on_the_cpu() {
     let on_gpu = Localizer::load(&out).unwrap();
     let on_cpu = Localizer::load_on(&out, burn::tensor::Device::flex()).unwrap();
     let ds = data::native::NativeDataset::open(&data).unwrap();
-    for i in ds.split_frames(data::native::SplitName::Val).take(6) {
+    for i in ds
+        .split_frames(data::native::SplitName::Val)
+        .into_iter()
+        .take(6)
+    {
         let frame = &ds.trajectory.frames[i];
         let img = image::open(ds.frame_path(frame.name.parse().unwrap())).unwrap();
         let (a, b) = (
