@@ -98,3 +98,35 @@ fn every_command_refuses_every_bad_input_with_exit_2_and_one_line() -> TestResul
     }
     Ok(())
 }
+
+/// `--device` names what is missing: a GPU in a build without the feature (this one, as CI
+/// builds it), a device indoorloc has no backend for, or no device at all.
+#[cfg(not(feature = "wgpu"))]
+#[test]
+fn a_device_this_build_lacks_is_refused_with_exit_2_and_the_reason() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let model = dir.path().join("model");
+    let model = model.to_str().ok_or("path")?;
+    for (args, reason) in [
+        (
+            vec!["--device", "wgpu", "bench", "infer"],
+            "--features wgpu",
+        ),
+        (
+            vec!["localize", "--device", "wgpu:1", "--model", model, model],
+            "--features wgpu",
+        ),
+        (vec!["train", "--device", "cuda", "--data", model], "Vulkan"),
+        (
+            vec!["bench", "train", "--device", "tpu"],
+            "cpu, wgpu or wgpu:N",
+        ),
+    ] {
+        let o = indoorloc(&args)?;
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(reason), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    Ok(())
+}

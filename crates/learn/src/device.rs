@@ -5,7 +5,7 @@
 //!
 //! burn 0.22 picks the backend by device and every tensor carries its device, so the choice is
 //! a [`burn::tensor::Device`] that training, inference and the benchmarks start from; the
-//! kernels take only f32 tensors on `flex` ([`crate::kernels::supported`]) and every other
+//! kernels take only f32 tensors on `flex` (`kernels::supported`) and every other
 //! device runs burn's own ops. Checkpoints hold plain f32 values, so a model trained on one
 //! device loads on the other.
 //!
