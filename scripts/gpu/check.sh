@@ -11,12 +11,14 @@
 # and `bench infer` on the GPU for the small network and ResNet-34 (batch 32, 1x120x160 and
 # 3x256x256), PyTorch's figures for the same work on the same GPU (scripts/gpu/torch_gpu.py),
 # `demo --quick` trained on the GPU and on the CPU for each seed in $SEEDS, and summary.md with
-# the ratios. Every step appends to its files as it ends, so a run cut short keeps what it did.
+# the ratios ($ARCHS, $SEEDS and $STEPS narrow it: ARCHS="" SEEDS="" checks only the set-up).
+# Every step appends to its files as it ends, so a run cut short keeps what it did.
 set -uo pipefail
 bin=${1:-gpu-bin/indoorloc.xz}
 out=${OUT:-gpu-check}
-seeds=${SEEDS:-"1 2"}
+seeds=${SEEDS-"1 2"}
 steps=${STEPS:-20}
+archs=${ARCHS-"small resnet34"}
 mkdir -p "$out"
 log() { echo "[$(date +%T)] $*" | tee -a "$out/log.txt"; }
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -49,7 +51,7 @@ ldconfig -p 2>/dev/null | grep -q libvulkan.so.1 || log "vulkan: libvulkan.so.1 
 log "vulkan icd: ${VK_ICD_FILENAMES:-none}"
 
 # Each network: indoorloc's bench on the GPU (the device's name comes with it), then PyTorch.
-for arch in small resnet34; do
+for arch in $archs; do
     log "bench train+infer $arch on wgpu"
     timeout 240 "$bin" bench train --device wgpu --arch "$arch" --train-steps "$steps" --json \
         > "$out/bench_train_$arch.json" 2>> "$out/log.txt" || log "bench train $arch failed ($?)"
