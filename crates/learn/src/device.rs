@@ -49,6 +49,9 @@ pub struct Selected {
     pub is_gpu: bool,
 }
 
+/// What a CPU device is called in [`Selected::name`].
+const CPU_NAME: &str = "CPU";
+
 /// The process-wide choice; the CPU until [`select`] says otherwise.
 static SELECTED: RwLock<Option<Selected>> = RwLock::new(None);
 
@@ -117,8 +120,9 @@ impl FromStr for ComputeDevice {
 }
 
 /// Makes `device` the process's device for training, inference and benchmarks, after checking
-/// that this build has it and that it answers (one small computation read back). An error
-/// names what is missing: the cargo feature, or a driver that finds no adapter.
+/// that this build has it and that a GPU answers (one small computation read back; the CPU
+/// always does, so every command's start-up skips it). An error names what is missing: the
+/// cargo feature, or a driver that finds no adapter.
 pub fn select(device: ComputeDevice) -> Result<Selected> {
     if !device.is_built_in() {
         return Err(LearnError::Device(format!(
@@ -126,7 +130,14 @@ pub fn select(device: ComputeDevice) -> Result<Selected> {
              `cargo build --release --features wgpu` (README, \"On a GPU\")"
         )));
     }
-    let selected = probe(device)?;
+    let selected = match device {
+        ComputeDevice::Cpu => Selected {
+            device,
+            name: CPU_NAME.into(),
+            is_gpu: false,
+        },
+        ComputeDevice::Wgpu(_) => probe(device)?,
+    };
     *SELECTED.write().unwrap_or_else(|e| e.into_inner()) = Some(selected.clone());
     Ok(selected)
 }
@@ -204,7 +215,7 @@ fn identity(device: &Device) -> (String, bool) {
         return (id.name, id.physical.is_some());
     }
     let _ = device;
-    ("CPU".into(), false)
+    (CPU_NAME.into(), false)
 }
 
 #[cfg(test)]
@@ -241,6 +252,7 @@ mod tests {
     fn the_cpu_answers() {
         let cpu = probe(ComputeDevice::Cpu).unwrap();
         assert!(!cpu.is_gpu);
+        assert_eq!(select(ComputeDevice::Cpu).unwrap(), cpu);
     }
 
     #[cfg(not(feature = "wgpu"))]
