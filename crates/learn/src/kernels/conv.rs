@@ -8,6 +8,9 @@
 //! for a one-channel input, so it runs on one thread). On the small network at batch 32 that
 //! made the backward pass 3-4x PyTorch's.
 
+use std::cell::Cell;
+use std::ops::Range;
+
 use rayon::prelude::*;
 
 use super::gemm::{MatRef, matmul};
@@ -123,47 +126,135 @@ impl Groups {
     }
 }
 
-/// Fills the patches of one image into `dst`: patch row `r` (one input channel and kernel
-/// offset) is the `oh * ow` values starting at `dst[r * row_stride]`, so the patches of several
-/// images can sit side by side in one column matrix.
-fn im2col(g: &ConvGeometry, image: &[f32], dst: &mut [f32], row_stride: usize) {
-    let [h, w] = g.input;
-    let [oh, ow] = g.output();
-    let [kh, kw] = g.kernel;
-    let [sh, sw] = g.stride;
-    let [ph, pw] = g.padding;
-    for row in 0..g.rows() {
-        let out = &mut dst[row * row_stride..][..oh * ow];
-        let (ci, ky, kx) = (row / (kh * kw), row / kw % kh, row % kw);
-        let plane = &image[ci * h * w..(ci + 1) * h * w];
-        let (y0, y1) = g.valid(0, ky);
-        let (x0, x1) = g.valid(1, kx);
-        for (oy, out_row) in out.chunks_exact_mut(ow).enumerate() {
-            if oy < y0 || oy >= y1 {
-                out_row.fill(0.0);
+/// An image whose rows hold their columns in phases of the column stride: for stride `s`,
+/// columns `0, s, 2s, ...` first, then `1, 1 + s, ...`, and so on. A strided convolution reads
+/// every `s`-th column of a row; in this order those columns are side by side, so [`im2col`]
+/// and [`col2im_add`] copy contiguous runs (vector moves) instead of gathering one value at a
+/// time, which took a third of a stride-2 inference.
+struct Phased {
+    /// Start of each phase within a row.
+    offsets: Vec<usize>,
+    /// Row length.
+    width: usize,
+    stride: usize,
+}
+
+impl Phased {
+    fn of(g: &ConvGeometry) -> Phased {
+        let (w, s) = (g.input[1], g.stride[1]);
+        let mut offsets = Vec::with_capacity(s);
+        let mut at = 0;
+        for p in 0..s {
+            offsets.push(at);
+            at += w.saturating_sub(p).div_ceil(s);
+        }
+        Phased {
+            offsets,
+            width: w,
+            stride: s,
+        }
+    }
+
+    /// Whether rows need reordering at all (stride 1 reads rows as they are).
+    fn reorders(&self) -> bool {
+        self.stride > 1
+    }
+
+    /// Where column `x` of a row lies in the phased row.
+    fn at(&self, x: usize) -> usize {
+        self.offsets[x % self.stride] + x / self.stride
+    }
+
+    /// `image` (whole rows) in phased order, into `dst`.
+    fn reorder(&self, image: &[f32], dst: &mut [f32]) {
+        for (src, out) in image
+            .chunks_exact(self.width)
+            .zip(dst.chunks_exact_mut(self.width))
+        {
+            if self.stride == 2 {
+                // The common case, as pairs: the compiler turns this into vector shuffles.
+                let (even, odd) = out.split_at_mut(self.offsets[1]);
+                for ((pair, e), o) in src.chunks_exact(2).zip(even.iter_mut()).zip(odd.iter_mut()) {
+                    *e = pair[0];
+                    *o = pair[1];
+                }
+                if self.width % 2 == 1 {
+                    even[self.width / 2] = src[self.width - 1];
+                }
                 continue;
             }
-            out_row[..x0].fill(0.0);
-            out_row[x1..].fill(0.0);
-            let src = &plane[(oy * sh + ky - ph) * w..][..w];
-            let first = x0 * sw + kx - pw;
-            if sw == 1 {
-                out_row[x0..x1].copy_from_slice(&src[first..first + (x1 - x0)]);
-            } else {
-                for (o, v) in out_row[x0..x1]
+            for (p, &offset) in self.offsets.iter().enumerate() {
+                for (o, v) in out[offset..]
                     .iter_mut()
-                    .zip(src[first..].iter().step_by(sw))
+                    .zip(src[p..].iter().step_by(self.stride))
                 {
                     *o = *v;
                 }
             }
         }
     }
+
+    /// Adds phased rows `src` back onto `image` in natural order.
+    fn add_back(&self, src: &[f32], image: &mut [f32]) {
+        for (row, out) in src
+            .chunks_exact(self.width)
+            .zip(image.chunks_exact_mut(self.width))
+        {
+            for (p, &offset) in self.offsets.iter().enumerate() {
+                for (o, v) in out[p..].iter_mut().step_by(self.stride).zip(&row[offset..]) {
+                    *o += *v;
+                }
+            }
+        }
+    }
 }
 
-/// Adds the patches laid out as [`im2col`] writes them back onto one image's gradient (its
-/// adjoint).
-fn col2im_add(g: &ConvGeometry, src: &[f32], row_stride: usize, image: &mut [f32]) {
+/// Fills the patches of output rows `oys` of one image (`image` in [`Phased`] order) into
+/// `dst`: patch row `r` (one input channel and kernel offset) is the `oys.len() * ow` values
+/// starting at `dst[r * row_stride]`, so the patches of several images can sit side by side in
+/// one column matrix.
+fn im2col(
+    g: &ConvGeometry,
+    phased: &Phased,
+    image: &[f32],
+    dst: &mut [f32],
+    row_stride: usize,
+    oys: Range<usize>,
+) {
+    let [h, w] = g.input;
+    let ow = g.output()[1];
+    let [kh, kw] = g.kernel;
+    let [sh, sw] = g.stride;
+    let [ph, pw] = g.padding;
+    for row in 0..g.rows() {
+        let out = &mut dst[row * row_stride..][..oys.len() * ow];
+        let (ci, ky, kx) = (row / (kh * kw), row / kw % kh, row % kw);
+        let plane = &image[ci * h * w..(ci + 1) * h * w];
+        let (y0, y1) = g.valid(0, ky);
+        let (x0, x1) = g.valid(1, kx);
+        for (oy, out_row) in oys.clone().zip(out.chunks_exact_mut(ow)) {
+            if oy < y0 || oy >= y1 || x0 == x1 {
+                out_row.fill(0.0);
+                continue;
+            }
+            out_row[..x0].fill(0.0);
+            out_row[x1..].fill(0.0);
+            let src = &plane[(oy * sh + ky - ph) * w..][..w];
+            let first = phased.at(x0 * sw + kx - pw);
+            out_row[x0..x1].copy_from_slice(&src[first..first + (x1 - x0)]);
+        }
+    }
+}
+
+/// Adds the patches laid out as [`im2col`] writes them (all output rows) back onto one
+/// image's gradient in [`Phased`] order (its adjoint).
+fn col2im_add(
+    g: &ConvGeometry,
+    phased: &Phased,
+    src: &[f32],
+    row_stride: usize,
+    image: &mut [f32],
+) {
     let [h, w] = g.input;
     let [oh, ow] = g.output();
     let [kh, kw] = g.kernel;
@@ -175,29 +266,86 @@ fn col2im_add(g: &ConvGeometry, src: &[f32], row_stride: usize, image: &mut [f32
         let plane = &mut image[ci * h * w..(ci + 1) * h * w];
         let (y0, y1) = g.valid(0, ky);
         let (x0, x1) = g.valid(1, kx);
+        if x0 == x1 {
+            continue;
+        }
+        let first = phased.at(x0 * sw + kx - pw);
         for oy in y0..y1 {
-            let dst = &mut plane[(oy * sh + ky - ph) * w..][..w];
-            let first = x0 * sw + kx - pw;
-            let src_row = &cols[oy * ow + x0..oy * ow + x1];
-            for (d, v) in dst[first..].iter_mut().step_by(sw).zip(src_row) {
+            let dst = &mut plane[(oy * sh + ky - ph) * w..][first..first + (x1 - x0)];
+            for (d, v) in dst.iter_mut().zip(&cols[oy * ow + x0..oy * ow + x1]) {
                 *d += *v;
             }
         }
     }
 }
 
+/// Scratch buffers one thread reuses across images, layers and calls: growing them zero-fills
+/// only the new part, so a network's passes after the first neither allocate nor clear them.
+#[derive(Default)]
+struct Scratch {
+    /// An image in [`Phased`] order.
+    phased: Vec<f32>,
+    /// A column matrix.
+    patches: Vec<f32>,
+    /// A product before it is regrouped or gathered.
+    product: Vec<f32>,
+}
+
+thread_local! {
+    static SCRATCH: Cell<Scratch> = Cell::new(Scratch::default());
+}
+
+/// Runs `f` with this thread's [`Scratch`]. It is taken out while `f` runs, so a task that
+/// rayon runs on this thread meanwhile (work stealing inside `f`) starts from empty buffers
+/// rather than sharing these.
+fn with_scratch<T>(f: impl FnOnce(&mut Scratch) -> T) -> T {
+    let mut s = SCRATCH.take();
+    let out = f(&mut s);
+    SCRATCH.set(s);
+    out
+}
+
+/// The first `n` values of `buf`, grown (zero-filled) if it is shorter; the values are
+/// whatever was there before.
+fn sized(buf: &mut Vec<f32>, n: usize) -> &mut [f32] {
+    if buf.len() < n {
+        buf.resize(n, 0.0);
+    }
+    &mut buf[..n]
+}
+
+/// The image `image` in [`Phased`] order: itself for stride 1, else reordered into `buf`.
+fn phased_image<'a>(phased: &Phased, image: &'a [f32], buf: &'a mut Vec<f32>) -> &'a [f32] {
+    if phased.reorders() {
+        let dst = sized(buf, image.len());
+        phased.reorder(image, dst);
+        dst
+    } else {
+        image
+    }
+}
+
 /// The column matrix `[rows, n * cols]` of images `[first, first + n)` of the batch `x` (for a
-/// pointwise convolution, the images themselves side by side).
-fn group_patches(g: &ConvGeometry, x: &[f32], first: usize, n: usize, buf: &mut Vec<f32>) {
+/// pointwise convolution, the images themselves side by side) in `s.patches`.
+fn group_patches(g: &ConvGeometry, x: &[f32], first: usize, n: usize, s: &mut Scratch) {
     let (rows, cols) = (g.rows(), g.cols());
-    buf.resize(rows * n * cols, 0.0);
+    let patches = sized(&mut s.patches, rows * n * cols);
     let images = &x[first * g.input_len()..(first + n) * g.input_len()];
     if g.is_pointwise() {
-        regroup(images, buf, rows, cols, n, false);
+        regroup(images, patches, rows, cols, n, false);
         return;
     }
+    let phased = Phased::of(g);
     for (i, image) in images.chunks_exact(g.input_len()).enumerate() {
-        im2col(g, image, &mut buf[i * cols..], n * cols);
+        let image = phased_image(&phased, image, &mut s.phased);
+        im2col(
+            g,
+            &phased,
+            image,
+            &mut patches[i * cols..],
+            n * cols,
+            0..g.output()[0],
+        );
     }
 }
 
@@ -219,32 +367,202 @@ fn regroup(src: &[f32], dst: &mut [f32], channels: usize, cols: usize, n: usize,
     }
 }
 
-/// The convolution `y = w * x` (no bias): `[batch, cout, oh, ow]`, row-major.
-pub fn forward(g: &ConvGeometry, x: &[f32], weight: &[f32]) -> Vec<f32> {
+/// What is applied to each output value of a convolution as it is written: a bias per output
+/// channel and a ReLU (a folded BatchNorm and its activation, in inference), fused so the map
+/// is not read and written again by separate ops.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Epilogue<'a> {
+    /// One value per output channel, added.
+    pub bias: Option<&'a [f32]>,
+    /// `max(., 0)` after the bias.
+    pub relu: bool,
+}
+
+impl Epilogue<'_> {
+    /// Applies the epilogue to `channels` consecutive planes of one image, the first being
+    /// output channel `first`.
+    fn apply(&self, planes: &mut [f32], first: usize, plane: usize) {
+        if self.bias.is_none() && !self.relu {
+            return;
+        }
+        for (c, values) in planes.chunks_exact_mut(plane.max(1)).enumerate() {
+            let b = self.bias.map_or(0.0, |b| b[first + c]);
+            if self.relu {
+                values.iter_mut().for_each(|v| *v = (*v + b).max(0.0));
+            } else {
+                values.iter_mut().for_each(|v| *v += b);
+            }
+        }
+    }
+
+    /// Applies the epilogue to whole images `[cout, plane]` laid end to end.
+    fn apply_images(&self, images: &mut [f32], cout: usize, plane: usize) {
+        for image in images.chunks_exact_mut((cout * plane).max(1)) {
+            self.apply(image, 0, plane);
+        }
+    }
+}
+
+/// Bytes of one band's column matrix that [`Tiles::Rows`] aims for: about half of a core's
+/// L2 cache, so the matrix product reads the patches back from cache rather than memory.
+const BAND_BYTES: usize = 256 * 1024;
+
+/// How the product of one group is cut into tiles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Tiles {
+    /// One image in bands of this many whole output rows: each band's patches are converted
+    /// and multiplied while they are in cache, bands in parallel. Taken for an image with more
+    /// output pixels than channels, where a band has at least as many columns as the weight
+    /// has rows, so repacking the weight per band costs less than the band's own patches.
+    Rows(usize),
+    /// Slices of this many output channels (a multiple of 16, the matrix kernel's height), one
+    /// per thread, when there are fewer groups than threads: each thread packs only its own
+    /// slice of the weight.
+    Channels(usize),
+    /// The group's product in one piece.
+    Whole,
+}
+
+impl Tiles {
+    fn of(g: &ConvGeometry, n: usize, threads: usize) -> Tiles {
+        let oh = g.output()[0];
+        let patches = g.rows() * g.cols() * std::mem::size_of::<f32>();
+        let by_cache = patches.div_ceil(BAND_BYTES);
+        let by_weight = g.cols() / g.cout.max(1);
+        let bands = by_cache.min(by_weight).max(threads).min(oh);
+        if n == 1 && !g.is_pointwise() && g.cols() >= g.cout && bands > 1 {
+            Tiles::Rows(oh.div_ceil(bands).max(1))
+        } else if threads > 1 {
+            Tiles::Channels(
+                g.cout
+                    .div_ceil(threads)
+                    .next_multiple_of(16)
+                    .min(g.cout.max(1)),
+            )
+        } else {
+            Tiles::Whole
+        }
+    }
+}
+
+/// The convolution `y = w * x`, then the epilogue: `[batch, cout, oh, ow]`, row-major.
+pub fn forward(g: &ConvGeometry, x: &[f32], weight: &[f32], epilogue: Epilogue) -> Vec<f32> {
     assert_eq!(x.len(), g.batch * g.input_len(), "input size");
     assert_eq!(weight.len(), g.cout * g.rows(), "weight size");
-    let (rows, cols) = (g.rows(), g.cols());
+    if let Some(bias) = epilogue.bias {
+        assert_eq!(bias.len(), g.cout, "bias size");
+    }
     let groups = Groups::of(g);
     let mut y = vec![0.0; g.batch * g.output_len()];
-    let w = MatRef::row_major(weight, g.cout, rows);
-    y.par_chunks_mut((groups.size * g.output_len()).max(1))
-        .enumerate()
-        .for_each_init(
-            || (Vec::new(), Vec::new()),
-            |(patches, product), (k, out)| {
-                let (first, n) = groups.images(g, k);
-                group_patches(g, x, first, n, patches);
-                let p = MatRef::row_major(patches, rows, n * cols);
-                if n == 1 {
-                    matmul(out, w, p, false, groups.gemm_threads);
-                } else {
-                    product.resize(g.cout * n * cols, 0.0);
-                    matmul(product, w, p, false, groups.gemm_threads);
-                    regroup(product, out, g.cout, cols, n, true);
-                }
-            },
-        );
+    let chunk = (groups.size * g.output_len()).max(1);
+    let threads = groups.gemm_threads;
+    let group = |(k, out): (usize, &mut [f32])| {
+        let images = groups.images(g, k);
+        forward_group(g, x, weight, epilogue, images, out, threads);
+    };
+    if threads == 1 {
+        y.par_chunks_mut(chunk).enumerate().for_each(group);
+    } else {
+        y.chunks_mut(chunk).enumerate().for_each(group);
+    }
     y
+}
+
+/// One group's images `(first, n)` into `out`, on `threads` threads.
+fn forward_group(
+    g: &ConvGeometry,
+    x: &[f32],
+    weight: &[f32],
+    epilogue: Epilogue,
+    (first, n): (usize, usize),
+    out: &mut [f32],
+    threads: usize,
+) {
+    let (rows, cols) = (g.rows(), g.cols());
+    let slice = match Tiles::of(g, n, threads) {
+        Tiles::Rows(band) => {
+            let image = &x[first * g.input_len()..(first + 1) * g.input_len()];
+            return forward_bands(g, image, weight, epilogue, band, out);
+        }
+        Tiles::Channels(c) => c,
+        Tiles::Whole => g.cout.max(1),
+    };
+    with_scratch(|s| {
+        group_patches(g, x, first, n, s);
+        let patches = MatRef::row_major(&s.patches[..rows * n * cols], rows, n * cols);
+        let product = if n == 1 {
+            &mut *out
+        } else {
+            sized(&mut s.product, g.cout * n * cols)
+        };
+        product
+            .par_chunks_mut(slice * n * cols)
+            .enumerate()
+            .for_each(|(t, part)| {
+                let c0 = t * slice;
+                let c = part.len() / (n * cols).max(1);
+                let w = MatRef::row_major(&weight[c0 * rows..(c0 + c) * rows], c, rows);
+                matmul(part, w, patches, false, 1);
+                if n == 1 {
+                    epilogue.apply(part, c0, cols);
+                }
+            });
+        if n > 1 {
+            regroup(&s.product, out, g.cout, cols, n, true);
+            epilogue.apply_images(out, g.cout, cols);
+        }
+    });
+}
+
+/// One image by bands of `band` output rows: each band's patches are converted, multiplied and
+/// written (with the epilogue) into its own columns of `out` by one thread.
+fn forward_bands(
+    g: &ConvGeometry,
+    image: &[f32],
+    weight: &[f32],
+    epilogue: Epilogue,
+    band: usize,
+    out: &mut [f32],
+) {
+    let (rows, [oh, ow]) = (g.rows(), g.output());
+    let bands = oh.div_ceil(band);
+    // Each band's slice of every output channel's plane, split off so the bands own them.
+    let mut parts: Vec<Vec<&mut [f32]>> = (0..bands).map(|_| Vec::with_capacity(g.cout)).collect();
+    for plane in out.chunks_exact_mut(g.cols().max(1)) {
+        let mut rest = plane;
+        for part in &mut parts {
+            let (mine, tail) = rest.split_at_mut((band * ow).min(rest.len()));
+            part.push(mine);
+            rest = tail;
+        }
+    }
+    let phased = Phased::of(g);
+    // The reordered image is shared by the bands, so it lives outside their scratch.
+    let mut buf = with_scratch(|s| std::mem::take(&mut s.phased));
+    let image = phased_image(&phased, image, &mut buf);
+    let w = MatRef::row_major(weight, g.cout, rows);
+    parts
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(b, mut planes)| {
+            let oys = b * band..((b + 1) * band).min(oh);
+            let cols = oys.len() * ow;
+            with_scratch(|s| {
+                let patches = sized(&mut s.patches, rows * cols);
+                im2col(g, &phased, image, patches, cols, oys);
+                let product = sized(&mut s.product, g.cout * cols);
+                matmul(product, w, MatRef::row_major(patches, rows, cols), false, 1);
+                for (c, (plane, values)) in planes
+                    .iter_mut()
+                    .zip(product.chunks_exact(cols))
+                    .enumerate()
+                {
+                    plane.copy_from_slice(values);
+                    epilogue.apply(plane, c, cols);
+                }
+            });
+        });
+    with_scratch(|s| s.phased = buf);
 }
 
 /// The weight gradient `Σ_groups dy · colsᵀ`: `[cout, cin, kh, kw]`. Groups are split into one
@@ -259,17 +577,17 @@ pub fn backward_weight(g: &ConvGeometry, x: &[f32], dy: &[f32]) -> Vec<f32> {
     let per_run = groups.count.div_ceil(runs);
     let partial = |run: usize| {
         let mut dw = vec![0.0; g.cout * rows];
-        let (mut patches, mut grads) = (Vec::new(), Vec::new());
+        let (mut s, mut grads) = (Scratch::default(), Vec::new());
         for k in run * per_run..((run + 1) * per_run).min(groups.count) {
             let (first, n) = groups.images(g, k);
-            group_patches(g, x, first, n, &mut patches);
+            group_patches(g, x, first, n, &mut s);
             let grad = &dy[first * g.output_len()..(first + n) * g.output_len()];
             grads.resize(g.cout * n * cols, 0.0);
             regroup(grad, &mut grads, g.cout, cols, n, false);
             matmul(
                 &mut dw,
                 MatRef::row_major(&grads, g.cout, n * cols),
-                MatRef::row_major(&patches, rows, n * cols).t(),
+                MatRef::row_major(&s.patches, rows, n * cols).t(),
                 true,
                 groups.gemm_threads,
             );
@@ -297,8 +615,8 @@ pub fn backward_input(g: &ConvGeometry, weight: &[f32], dy: &[f32]) -> Vec<f32> 
     dx.par_chunks_mut((groups.size * g.input_len()).max(1))
         .enumerate()
         .for_each_init(
-            || (Vec::new(), Vec::new()),
-            |(grads, patches), (k, images)| {
+            || (Vec::new(), Vec::new(), Vec::new()),
+            |(grads, patches, phased_grad), (k, images)| {
                 let (first, n) = groups.images(g, k);
                 let grad = &dy[first * g.output_len()..(first + n) * g.output_len()];
                 grads.resize(g.cout * n * cols, 0.0);
@@ -309,8 +627,17 @@ pub fn backward_input(g: &ConvGeometry, weight: &[f32], dy: &[f32]) -> Vec<f32> 
                 if g.is_pointwise() {
                     regroup(patches, images, rows, cols, n, true);
                 } else {
+                    let phased = Phased::of(g);
                     for (i, image) in images.chunks_exact_mut(g.input_len()).enumerate() {
-                        col2im_add(g, &patches[i * cols..], n * cols, image);
+                        let src = &patches[i * cols..];
+                        if phased.reorders() {
+                            phased_grad.clear();
+                            phased_grad.resize(g.input_len(), 0.0);
+                            col2im_add(g, &phased, src, n * cols, phased_grad);
+                            phased.add_back(phased_grad, image);
+                        } else {
+                            col2im_add(g, &phased, src, n * cols, image);
+                        }
                     }
                 }
             },
@@ -382,6 +709,8 @@ mod tests {
             g(1, [16, 17], 2, [3, 3], [1, 1], [1, 1]),
             // 144 output pixels: groups of two images, the last one alone.
             g(2, [12, 12], 3, [3, 3], [1, 1], [1, 1]),
+            // More channels than output pixels, stride 3: one image is cut by channels.
+            g(3, [7, 8], 40, [3, 3], [3, 3], [1, 1]),
         ]
     }
 
@@ -390,10 +719,40 @@ mod tests {
         for g in geometries() {
             let x = values(g.batch * g.input_len(), 0.5);
             let w = values(g.cout * g.rows(), 3.0);
-            let (got, want) = (forward(&g, &x, &w), naive(&g, &x, &w));
+            let (got, want) = (forward(&g, &x, &w, Epilogue::default()), naive(&g, &x, &w));
             assert_eq!(got.len(), want.len(), "{g:?}");
             for (a, b) in got.iter().zip(&want) {
                 assert!((a - b).abs() < 1e-4, "{g:?}: {a} vs {b}");
+            }
+        }
+    }
+
+    /// One image on several threads takes the band and channel tilings; the bias and ReLU
+    /// are applied to every value.
+    #[test]
+    fn single_images_on_many_threads_match_the_definition_with_bias_and_relu() {
+        for threads in [2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            for g in geometries() {
+                let g = ConvGeometry { batch: 1, ..g };
+                let x = values(g.input_len(), 0.5);
+                let w = values(g.cout * g.rows(), 3.0);
+                let bias = values(g.cout, 9.0);
+                let relu = g.cout % 2 == 1;
+                let epilogue = Epilogue {
+                    bias: Some(&bias),
+                    relu,
+                };
+                let got = pool.install(|| forward(&g, &x, &w, epilogue));
+                let plane = g.cols();
+                for (i, (a, b)) in got.iter().zip(naive(&g, &x, &w)).enumerate() {
+                    let b = b + bias[i / plane];
+                    let b = if relu { b.max(0.0) } else { b };
+                    assert!((a - b).abs() < 1e-4, "{g:?} on {threads}: {a} vs {b}");
+                }
             }
         }
     }

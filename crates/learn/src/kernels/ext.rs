@@ -6,6 +6,7 @@ use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::CheckpointStrategy;
 use burn::backend::autodiff::grads::Gradients;
 use burn::backend::autodiff::ops::{Backward, Ops, OpsKind};
+use burn::backend::ops::{ActivationOps, FloatTensorOps};
 use burn::backend::tensor::FloatTensor;
 use burn::backend::{
     Backend, Bytes, DType, ExtensionType, Flex, TensorMetadata, backend_extension,
@@ -36,6 +37,17 @@ pub trait FastOps: Backend {
         weight: FloatTensor<Self>,
         stride: [usize; 2],
         padding: [usize; 2],
+    ) -> FloatTensor<Self>;
+
+    /// [`FastOps::fast_conv2d`] plus a bias per output channel (`[Cout]`), then `max(., 0)` if
+    /// `relu`, in one pass over the output: a folded BatchNorm and its activation at inference.
+    fn fast_conv2d_bias(
+        x: FloatTensor<Self>,
+        weight: FloatTensor<Self>,
+        bias: FloatTensor<Self>,
+        stride: [usize; 2],
+        padding: [usize; 2],
+        relu: bool,
     ) -> FloatTensor<Self>;
 
     /// BatchNorm with the statistics of the batch, then `max(., 0)` if `relu`.
@@ -102,9 +114,14 @@ fn map_shape(x: &FlexTensor) -> MapShape {
     }
 }
 
-fn conv_forward(g: &ConvGeometry, x: &FlexTensor, weight: &FlexTensor) -> FlexTensor {
+fn conv_forward(
+    g: &ConvGeometry,
+    x: &FlexTensor,
+    weight: &FlexTensor,
+    epilogue: conv::Epilogue,
+) -> FlexTensor {
     let [oh, ow] = g.output();
-    let y = conv::forward(g, values(x), values(weight));
+    let y = conv::forward(g, values(x), values(weight), epilogue);
     tensor(y, &[g.batch, g.cout, oh, ow])
 }
 
@@ -146,7 +163,25 @@ impl FastOps for Flex {
         padding: [usize; 2],
     ) -> FlexTensor {
         let (x, weight) = (contiguous(&x), contiguous(&weight));
-        conv_forward(&geometry(&x, &weight, stride, padding), &x, &weight)
+        let g = geometry(&x, &weight, stride, padding);
+        conv_forward(&g, &x, &weight, conv::Epilogue::default())
+    }
+
+    fn fast_conv2d_bias(
+        x: FlexTensor,
+        weight: FlexTensor,
+        bias: FlexTensor,
+        stride: [usize; 2],
+        padding: [usize; 2],
+        relu: bool,
+    ) -> FlexTensor {
+        let (x, weight, bias) = (contiguous(&x), contiguous(&weight), contiguous(&bias));
+        let g = geometry(&x, &weight, stride, padding);
+        let epilogue = conv::Epilogue {
+            bias: Some(values(&bias)),
+            relu,
+        };
+        conv_forward(&g, &x, &weight, epilogue)
     }
 
     fn fast_batch_norm_train(
@@ -241,7 +276,7 @@ impl<C: CheckpointStrategy> FastOps for Autodiff<Flex, C> {
             OpsKind::Tracked(prep) => {
                 let (xp, wp) = (contiguous(x.primitive()), contiguous(weight.primitive()));
                 let g = geometry(&xp, &wp, stride, padding);
-                let y = conv_forward(&g, &xp, &wp);
+                let y = conv_forward(&g, &xp, &wp, conv::Epilogue::default());
                 prep.finish((xp, wp, g), y)
             }
             OpsKind::UnTracked(prep) => prep.finish(Flex::fast_conv2d(
@@ -251,6 +286,22 @@ impl<C: CheckpointStrategy> FastOps for Autodiff<Flex, C> {
                 padding,
             )),
         }
+    }
+
+    /// Tracked: the convolution above, then burn's own bias add and ReLU, so gradients flow
+    /// as for any layer (a folded network is for inference; this keeps it correct anywhere).
+    fn fast_conv2d_bias(
+        x: FloatTensor<Self>,
+        weight: FloatTensor<Self>,
+        bias: FloatTensor<Self>,
+        stride: [usize; 2],
+        padding: [usize; 2],
+        relu: bool,
+    ) -> FloatTensor<Self> {
+        let cout = bias.shape()[0];
+        let y = Self::fast_conv2d(x, weight, stride, padding);
+        let y = Self::float_add(y, Self::float_reshape(bias, [1, cout, 1, 1].into()));
+        if relu { Self::relu(y) } else { y }
     }
 
     fn fast_batch_norm_train(

@@ -41,6 +41,26 @@ pub fn conv2d(
     ))
 }
 
+/// [`conv2d`] plus `bias` per output channel, then a ReLU if `relu`, in one pass (a folded
+/// BatchNorm at inference).
+pub fn conv2d_bias(
+    x: Tensor<4>,
+    weight: Tensor<4>,
+    bias: Tensor<1>,
+    stride: [usize; 2],
+    padding: [usize; 2],
+    relu: bool,
+) -> Tensor<4> {
+    Tensor::from_dispatch(<Dispatch as FastOps>::fast_conv2d_bias(
+        x.into_dispatch(),
+        weight.into_dispatch(),
+        bias.into_dispatch(),
+        stride,
+        padding,
+        relu,
+    ))
+}
+
 /// Training-mode BatchNorm of `x` (`[batch, channels, ...]`), then a ReLU if `relu`; returns
 /// the output and the batch mean and biased variance per channel (untracked).
 pub fn batch_norm_train<const D: usize>(
