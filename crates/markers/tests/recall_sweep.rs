@@ -8,9 +8,10 @@
 //! whose id the photo's gold lacks (or holds fewer times) is a wrong id.
 //!
 //! The two JPEG decoders (`image`'s, libjpeg-turbo) differ by a grey level on about 1 % of the
-//! pixels. On the same pixels both detectors find the same markers; the marker the issue saw
-//! lost was one whose cells are 2–3 px, where that grey level moves a contour corner by a pixel
-//! (see `detect`'s second reading). The reference is made from the files this test makes:
+//! pixels. On the same pixels OpenCV and `detect`'s OpenCV pass find the same markers; the ones
+//! lost on one side only have cells of 2–4 px, where that grey level moves a contour corner by a
+//! pixel (see `detect`'s second reading, which finds them). The reference is made from the
+//! files this test makes:
 //!
 //! ```text
 //! SWEEP_OUT=/tmp/sweep cargo test -p markers --test recall_sweep -- --ignored --exact write_sweep_for_opencv
