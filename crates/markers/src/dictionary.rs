@@ -330,6 +330,17 @@ impl Dictionary {
         None
     }
 
+    /// Fewest wrong cells of observed cell masks (as [`Dictionary::identify_cells`] takes them)
+    /// against any code in any rotation.
+    pub(crate) fn nearest_distance(&self, not_black: u64, not_white: u64) -> u32 {
+        self.rotations
+            .iter()
+            .flatten()
+            .map(|&code| ((!code & not_black) | (code & not_white)).count_ones())
+            .min()
+            .unwrap_or(u32::MAX)
+    }
+
     /// True when no two codes (any rotations) lie within `2 × max_errors` of each other, by the
     /// dictionary's own promise (`max_correction_bits`).
     fn unique_within(&self, max_errors: u32) -> bool {
@@ -450,6 +461,18 @@ mod tests {
                 assert_eq!(d.identify(code ^ 0b1111_0000_0000_0000), None);
             }
         }
+    }
+
+    #[test]
+    fn nearest_distance_counts_the_wrong_cells_of_the_best_code() {
+        let d = Dictionary::predefined("4x4_50").unwrap();
+        let mask = (1u64 << 16) - 1;
+        let code = d.codes()[7];
+        assert_eq!(d.nearest_distance(code, !code & mask), 0);
+        // Two cells flipped, one cell uncertain (in both masks): three wrong.
+        let bits = code ^ 0b101;
+        let (not_black, not_white) = (bits | 1 << 9, (!bits & mask) | 1 << 9);
+        assert_eq!(d.nearest_distance(not_black, not_white), 3);
     }
 
     #[test]

@@ -34,7 +34,15 @@ fn detection_speed() {
         .num_threads(1)
         .build()
         .unwrap();
-    for name in ["singlemarkersoriginal.jpg", "choriginal.jpg"] {
+    // The photos `indoorloc bench markers` times.
+    for name in [
+        "singlemarkersoriginal.jpg",
+        "choriginal.jpg",
+        "chocclusion_original.jpg",
+        "img_00.jpg",
+        "img_02.jpg",
+        "img_03.jpg",
+    ] {
         let gray = load_gray(&PathBuf::from(DATA).join(name)).unwrap();
         let single = one.install(|| median_ms(|| drop(detect(&gray, &dict, &params)), 30));
         let all = median_ms(|| drop(detect(&gray, &dict, &params)), 30);

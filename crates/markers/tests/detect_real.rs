@@ -3,24 +3,12 @@
 //! 1 px (OpenCV's test tolerance); on the diamond photo, at least OpenCV's default recall.
 //! Run with `-- --nocapture` to see the per-image table.
 
+mod common;
+
+use common::{data, dictionary_for, gold};
 use markers::{DetectParams, Dictionary, Marker, detect_file};
 use serde_json::Value;
 use std::collections::HashMap;
-use std::path::PathBuf;
-
-const DATA: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../../shared/data/aruco_real"
-);
-
-fn data(name: &str) -> PathBuf {
-    PathBuf::from(DATA).join(name)
-}
-
-fn gold() -> Value {
-    let text = std::fs::read_to_string(data("gold.json")).expect("gold.json");
-    serde_json::from_str(&text).expect("gold.json parses")
-}
 
 fn gold_image<'a>(gold: &'a Value, image: &str) -> &'a Value {
     gold["images"]
@@ -29,15 +17,6 @@ fn gold_image<'a>(gold: &'a Value, image: &str) -> &'a Value {
         .iter()
         .find(|i| i["image"] == image)
         .expect("image in gold")
-}
-
-fn dictionary_for(image: &Value) -> Dictionary {
-    let name = image["dictionary"].as_str().unwrap();
-    if name.contains("tutorial_dict.yml") {
-        Dictionary::from_opencv_yaml(data("tutorial_dict.yml")).unwrap()
-    } else {
-        Dictionary::predefined(name).unwrap()
-    }
 }
 
 /// Per-image score: (matched, missed ids, false ids, max corner error over matched markers).
@@ -193,6 +172,7 @@ fn the_tutorial_dictionary_reads_and_bad_files_are_named() {
 fn every_photo_matches_opencv_default_output() {
     // opencv_reference.json: cv2.aruco (5.0.0) with default parameters on every photo,
     // including the three board views that have no gold.
+    let gold = gold();
     let text =
         std::fs::read_to_string(data("opencv_reference.json")).expect("opencv_reference.json");
     let reference: Value = serde_json::from_str(&text).unwrap();
@@ -210,6 +190,7 @@ fn every_photo_matches_opencv_default_output() {
         let found = detect_file(data(name), &dictionary_for(r), &params).unwrap();
         let (matched, missed, false_ids, err) = score(&found, &r["markers"]);
         let mut exact = 0;
+        let mut beyond = Vec::new();
         for m in &found {
             let same = r["markers"].as_array().unwrap().iter().any(|g| {
                 g["id"].as_u64() == Some(u64::from(m.id))
@@ -221,18 +202,35 @@ fn every_photo_matches_opencv_default_output() {
                         .all(|(c, p)| c[0].as_f64() == Some(p.x) && c[1].as_f64() == Some(p.y))
             });
             exact += usize::from(same);
+            if !same {
+                beyond.push(m.id);
+            }
         }
+        // The second reading of small candidates (`detect`'s docs) may find markers OpenCV's
+        // pass misses: only gold markers of the photo, each no more often than the gold has it.
+        let gold_ids: Vec<u32> = gold["images"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|g| g["image"] == name)
+            .flat_map(|g| g["markers"].as_array().unwrap())
+            .map(|m| m["id"].as_u64().unwrap() as u32)
+            .collect();
+        let count = |ids: &mut dyn Iterator<Item = u32>, id: u32| ids.filter(|&i| i == id).count();
+        let beyond_gold = beyond.iter().any(|&id| {
+            count(&mut found.iter().map(|m| m.id), id) > count(&mut gold_ids.iter().copied(), id)
+        });
         println!(
             "vs OpenCV {name:<26} opencv {:>2} ours {:>2} matched {matched:>2} identical {exact:>2} max corner diff {err:.2} px",
             r["markers"].as_array().unwrap().len(),
             found.len()
         );
-        // README: corners equal OpenCV's. Every marker OpenCV finds is found, none more, with
-        // bit-identical corners.
+        // README: corners equal OpenCV's. Every marker OpenCV finds is found with bit-identical
+        // corners; none more but gold markers.
         let opencv = r["markers"].as_array().unwrap().len();
-        if !missed.is_empty() || !false_ids.is_empty() || exact != opencv || found.len() != opencv {
+        if !missed.is_empty() || exact != opencv || beyond_gold {
             failures.push(format!(
-                "{name}: missed {missed:?}, extra {false_ids:?}, {exact} of {opencv} identical, max corner diff {err:.2}"
+                "{name}: missed {missed:?}, not OpenCV's {false_ids:?}, beyond OpenCV's {beyond:?}, {exact} of {opencv} identical, max corner diff {err:.2}"
             ));
         }
     }

@@ -15,21 +15,45 @@ pub(crate) struct Scratch {
     ratios: Vec<f32>,
 }
 
-/// Identifies the candidate with corners `corners` (clockwise), or `None`.
+/// Where a candidate's corners lie, which decides where they land in the sampled square.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum CornerKind {
+    /// OpenCV's contour pixels, half a pixel inside the black square: they become the centres
+    /// of the sampled square's corner pixels, as in OpenCV.
+    ContourPixels,
+    /// Sub-pixel points on the black square's outer edges ([`super::refine`]): they become the
+    /// outer corners of the sampled square's corner pixels, half a pixel further out.
+    Edges,
+}
+
+/// Why a candidate was not read as a marker.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Rejected {
+    /// A degenerate quad, or an inside too uniform to hold bits.
+    Blank,
+    /// This many border cells were not black (more than the parameters allow).
+    Border(usize),
+    /// The border held; the inner cells (masks as [`Dictionary::identify_cells`] takes them)
+    /// are no code of the dictionary.
+    Code { not_black: u64, not_white: u64 },
+}
+
+/// Identifies the candidate with corners `corners` (clockwise), or says why it is none.
 pub(crate) fn identify_candidate(
     gray: &GrayImage,
     corners: &[[f32; 2]; 4],
+    kind: CornerKind,
     dict: &Dictionary,
     params: &DetectParams,
     scratch: &mut Scratch,
-) -> Option<Identified> {
+) -> Result<Identified, Rejected> {
     let n = dict.marker_size() as usize;
     let border = params.marker_border_bits.max(1) as usize;
     let cells = n + 2 * border;
     let cell_px = params.perspective_remove_pixel_per_cell.max(1) as usize;
     let side = cells * cell_px;
-    warp_nearest(gray, corners, side, &mut scratch.warped)?;
-    cell_ratios(
+    warp_nearest(gray, corners, kind, side, &mut scratch.warped).ok_or(Rejected::Blank)?;
+    let uniform = cell_ratios(
         &scratch.warped,
         side,
         cells,
@@ -67,7 +91,11 @@ pub(crate) fn identify_candidate(
     }
     let max_border_errors = ((n * n) as f64 * params.max_erroneous_bits_in_border_rate) as usize;
     if errors > max_border_errors {
-        return None;
+        return Err(if uniform {
+            Rejected::Blank
+        } else {
+            Rejected::Border(errors)
+        });
     }
     let (mut not_black, mut not_white) = (0u64, 0u64);
     for y in border..border + n {
@@ -82,18 +110,31 @@ pub(crate) fn identify_candidate(
         not_white,
         dict.correction_limit(params.error_correction_rate),
     )
+    .ok_or(if uniform {
+        Rejected::Blank
+    } else {
+        Rejected::Code {
+            not_black,
+            not_white,
+        }
+    })
 }
 
 /// `getPerspectiveTransform` + `warpPerspective(INTER_NEAREST, BORDER_CONSTANT 0)` onto a
-/// `side x side` square whose corners are the candidate's. `None` for a degenerate quad.
+/// `side x side` square whose corners are the candidate's (where `kind` says). `None` for a
+/// degenerate quad.
 fn warp_nearest(
     gray: &GrayImage,
     corners: &[[f32; 2]; 4],
+    kind: CornerKind,
     side: usize,
     out: &mut Vec<u8>,
 ) -> Option<()> {
-    let s = side as f64 - 1.0;
-    let dst = [[0.0, 0.0], [s, 0.0], [s, s], [0.0, s]];
+    let (lo, hi) = match kind {
+        CornerKind::ContourPixels => (0.0, side as f64 - 1.0),
+        CornerKind::Edges => (-0.5, side as f64 - 0.5),
+    };
+    let dst = [[lo, lo], [hi, lo], [hi, hi], [lo, hi]];
     let src = corners.map(|c| [f64::from(c[0]), f64::from(c[1])]);
     let m = perspective_transform(&src, &dst)?;
     let m = invert3(&m)?;
@@ -204,7 +245,7 @@ fn invert3(s: &[f64; 9]) -> Option<[f64; 9]> {
 }
 
 /// White share of every cell: Otsu on the warped square, or all 0 / all 1 when the inside is too
-/// uniform (standard deviation below `min_otsu_std_dev`).
+/// uniform (standard deviation below `min_otsu_std_dev`; then it returns true).
 fn cell_ratios(
     warped: &[u8],
     side: usize,
@@ -212,7 +253,7 @@ fn cell_ratios(
     cell_px: usize,
     params: &DetectParams,
     out: &mut Vec<f32>,
-) {
+) -> bool {
     out.clear();
     out.resize(cells * cells, 0.0);
     // Mean and standard deviation of the inside (half a cell trimmed on every side).
@@ -230,7 +271,7 @@ fn cell_ratios(
         let var = (sq as f64 / n as f64 - mean * mean).max(0.0);
         if var.sqrt() < params.min_otsu_std_dev {
             out.fill(if mean > 127.0 { 1.0 } else { 0.0 });
-            return;
+            return true;
         }
     }
     let t = otsu(warped);
@@ -249,6 +290,7 @@ fn cell_ratios(
             out[cy * cells + cx] = white as f32 / total;
         }
     }
+    false
 }
 
 /// OpenCV's `getThreshVal_Otsu_8u`.
@@ -303,7 +345,7 @@ mod tests {
         let img = GrayImage::from_fn(40, 40, |x, y| image::Luma([(x + 40 * y) as u8]));
         let corners = [[3.0, 5.0], [34.0, 5.0], [34.0, 36.0], [3.0, 36.0]];
         let mut out = Vec::new();
-        warp_nearest(&img, &corners, 32, &mut out).unwrap();
+        warp_nearest(&img, &corners, CornerKind::ContourPixels, 32, &mut out).unwrap();
         for y in 0..32u32 {
             for x in 0..32u32 {
                 assert_eq!(out[(y * 32 + x) as usize], img.get_pixel(x + 3, y + 5)[0]);

@@ -15,20 +15,51 @@ use nalgebra::{Point2, Vector2};
 /// Most pixels along the edge normal to look for the edge (each way); less on small markers,
 /// so that the inner end stays within the one-cell black border.
 const SEARCH_PX: f64 = 2.5;
-/// Step of the samples along the normal, pixels.
-const STEP_PX: f64 = 0.125;
 /// Least difference between the light and the dark end of a profile, linear grey levels.
 const MIN_CONTRAST: f64 = 10.0;
-/// Most window moves while centring the edge profile on the edge (see [`edge_offset`]).
-const CENTRING_STEPS: usize = 5;
 /// The window counts as centred when the edge lies within this of its centre, pixels.
 const CENTRING_TOLERANCE_PX: f64 = 0.005;
 /// A refined corner further than this from the contour corner is distrusted, pixels.
 const MAX_SHIFT_PX: f64 = 3.0;
 
+/// How much work an edge fit spends.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Effort {
+    /// Step of the samples along the normal, pixels.
+    step_px: f64,
+    /// Most window moves while centring the edge profile on the edge (see [`edge_offset`]).
+    centring_steps: usize,
+    /// Most edge points fitted per edge.
+    max_points: usize,
+}
+
+/// For poses: a hundredth of a pixel matters (the range's error is the corners' relative one).
+const FOR_POSE: Effort = Effort {
+    step_px: 0.125,
+    centring_steps: 5,
+    max_points: 40,
+};
+
+/// For reading a small candidate's cells again (`detect`'s second pass): a tenth of a pixel is
+/// a fortieth of a 4 px cell, and the fit runs on candidates that mostly are no marker.
+pub(crate) const FOR_READING: Effort = Effort {
+    step_px: 0.25,
+    centring_steps: 2,
+    max_points: 12,
+};
+
 /// Moves `corners` (a convex quad of a dark square on a light surround, any order around it)
 /// onto the sub-pixel intersections of its edges; corners whose edges cannot be fitted stay.
 pub fn refine_corners(gray: &GrayImage, corners: &mut [Point2<f64>; 4]) {
+    refine_corners_with(gray, corners, FOR_POSE);
+}
+
+/// [`refine_corners`] at the given effort.
+pub(crate) fn refine_corners_with(
+    gray: &GrayImage,
+    corners: &mut [Point2<f64>; 4],
+    effort: Effort,
+) {
     let centre = corners.iter().fold(Vector2::zeros(), |a, c| a + c.coords) / 4.0;
     let side = |k: usize| (corners[(k + 1) % 4] - corners[k % 4]).norm();
     let lines: Vec<Option<Line>> = (0..4)
@@ -39,7 +70,14 @@ pub fn refine_corners(gray: &GrayImage, corners: &mut [Point2<f64>; 4]) {
             // with the bilinear footprint, inside the border at any viewing angle.
             let across = side(k + 1).min(side(k + 3));
             let search = (across / 14.0).clamp(1.0, SEARCH_PX);
-            fit_edge(gray, corners[k], corners[(k + 1) % 4], &centre, search)
+            fit_edge(
+                gray,
+                corners[k],
+                corners[(k + 1) % 4],
+                &centre,
+                search,
+                effort,
+            )
         })
         .collect();
     let original = *corners;
@@ -81,6 +119,7 @@ fn fit_edge(
     b: Point2<f64>,
     centre: &Vector2<f64>,
     search: f64,
+    effort: Effort,
 ) -> Option<Line> {
     let d = b - a;
     let len = d.norm();
@@ -93,12 +132,12 @@ fn fit_edge(
         normal = -normal; // outwards: dark inside, light outside
     }
     // Samples away from the corners, where the neighbouring edges blur in.
-    let n = ((len / 2.0) as usize).clamp(4, 40);
+    let n = ((len / 2.0) as usize).clamp(4, effort.max_points.max(4));
     let mut pts: Vec<(Point2<f64>, f64)> = Vec::with_capacity(n);
     for i in 0..n {
         let t = 0.15 + 0.7 * (i as f64 + 0.5) / n as f64;
         let p = a + d * t;
-        if let Some((s, g)) = edge_offset(gray, &p, &normal, search) {
+        if let Some((s, g)) = edge_offset(gray, &p, &normal, search, effort) {
             pts.push((p + normal * s, g));
         }
     }
@@ -145,12 +184,14 @@ fn edge_offset(
     p: &Point2<f64>,
     normal: &Vector2<f64>,
     search: f64,
+    effort: Effort,
 ) -> Option<(f64, f64)> {
-    let mut found = edge_in_window(gray, p, normal, 0.0, search)?;
+    let step = effort.step_px;
+    let mut found = edge_in_window(gray, p, normal, 0.0, search, step)?;
     let (mut prev_centre, mut prev_gap) = (0.0, found.0);
     let mut centre = found.0.clamp(-search, search);
-    for _ in 0..CENTRING_STEPS {
-        found = edge_in_window(gray, p, normal, centre, search)?;
+    for _ in 0..effort.centring_steps {
+        found = edge_in_window(gray, p, normal, centre, search, step)?;
         let gap = found.0 - centre;
         if gap.abs() < CENTRING_TOLERANCE_PX || (gap - prev_gap).abs() < 1e-9 {
             break;
@@ -163,21 +204,22 @@ fn edge_offset(
 }
 
 /// [`edge_offset`] with the profile taken over `centre ± search` along `normal` (rounded to
-/// whole sampling steps).
+/// whole sampling steps of `step` pixels).
 fn edge_in_window(
     gray: &GrayImage,
     p: &Point2<f64>,
     normal: &Vector2<f64>,
     centre: f64,
     search: f64,
+    step: f64,
 ) -> Option<(f64, f64)> {
     // An even number of steps, so that the samples lie symmetrically about `centre`.
-    let half_steps = (search / STEP_PX).round() as usize;
+    let half_steps = ((search / step).round() as usize).max(1);
     let steps = 2 * half_steps;
-    let start = centre - half_steps as f64 * STEP_PX;
+    let start = centre - half_steps as f64 * step;
     let profile: Vec<f64> = (0..=steps)
         .map(|i| {
-            let s = start + i as f64 * STEP_PX;
+            let s = start + i as f64 * step;
             bilinear(gray, p.x + normal.x * s, p.y + normal.y * s)
         })
         .collect::<Option<_>>()?;
@@ -192,7 +234,7 @@ fn edge_in_window(
     let share = |v: f64| (light - v) / contrast;
     let area: f64 = profile
         .windows(2)
-        .map(|w| 0.5 * (share(w[0]) + share(w[1])) * STEP_PX)
+        .map(|w| 0.5 * (share(w[0]) + share(w[1])) * step)
         .sum();
     Some((start + area, contrast))
 }
