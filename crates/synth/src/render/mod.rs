@@ -70,6 +70,7 @@ mod post;
 mod raster;
 mod scene;
 mod shade;
+mod span;
 pub mod texture;
 
 pub use scene::RenderScene;

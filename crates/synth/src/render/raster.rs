@@ -158,16 +158,6 @@ pub(crate) struct VisTri {
 }
 
 impl VisTri {
-    /// A placeholder (never shaded).
-    pub const EMPTY: VisTri = VisTri {
-        w: [0.0; 3],
-        u: [0.0; 3],
-        v: [0.0; 3],
-        n: [0.0; 3],
-        plane: 0,
-        material: 0,
-    };
-
     /// `1/z` at a raster position (the same expression the fill loop uses, so the direct path
     /// reads back exactly what the depth test compared).
     #[inline(always)]
@@ -439,14 +429,24 @@ impl Raster {
         let t = ty * self.tiles_w + tx;
         if self.hiz_dirty[t] {
             let cam = self.cam.map(|c| (c.w, c.h)).unwrap_or((0, 0));
-            let mut m = f32::MAX;
+            let (x0, x1) = (tx * HIZ, ((tx + 1) * HIZ).min(cam.0));
+            // One running minimum per column, reduced at the end: the same minimum (the buffer
+            // holds no NaN) as a running scalar, but the compiler keeps the columns in vector
+            // lanes.
+            let mut lanes = [f32::MAX; HIZ];
             for y in ty * HIZ..((ty + 1) * HIZ).min(cam.1) {
-                let row = &self.zbuf[y * cam.0 + tx * HIZ..y * cam.0 + ((tx + 1) * HIZ).min(cam.0)];
-                for &w in row {
-                    m = fmin(m, w);
+                let row = &self.zbuf[y * cam.0 + x0..y * cam.0 + x1];
+                if let Ok(row) = <&[f32; HIZ]>::try_from(row) {
+                    for (m, &w) in lanes.iter_mut().zip(row) {
+                        *m = fmin(*m, w);
+                    }
+                } else {
+                    for (m, &w) in lanes.iter_mut().zip(row) {
+                        *m = fmin(*m, w);
+                    }
                 }
             }
-            self.hiz[t] = m;
+            self.hiz[t] = lanes.into_iter().fold(f32::MAX, fmin);
             self.hiz_dirty[t] = false;
         }
         self.hiz[t]
@@ -635,7 +635,25 @@ impl Raster {
                     k1 = k1.min(b);
                 }
             }
-            if k0 <= k1 {
+            if wide && k0 <= k1 {
+                // The span is exact: every pixel in it is inside, so the loop is only the depth
+                // test, which vectorizes.
+                let span = row + (x0 + k0) as usize..row + (x0 + k1) as usize + 1;
+                let mut any = false;
+                for ((z, idx), x) in self.zbuf[span.clone()]
+                    .iter_mut()
+                    .zip(&mut self.ids[span])
+                    .zip((x0 + k0) as i32..)
+                {
+                    // (`i32` converts to `f32` in vector lanes; `i64` would not.)
+                    let wv = w[0] * x as f32 + wrow;
+                    let nearer = wv > *z;
+                    *z = if nearer { wv } else { *z };
+                    *idx = if nearer { id } else { *idx };
+                    any |= nearer;
+                }
+                wrote |= any;
+            } else if k0 <= k1 {
                 let (mut e0, mut e1, mut e2) = (r0 + sx0 * k0, r1 + sx1 * k0, r2 + sx2 * k0);
                 let span = row + (x0 + k0) as usize..row + (x0 + k1) as usize + 1;
                 let mut seen = false;
