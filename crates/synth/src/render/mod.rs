@@ -283,6 +283,47 @@ impl Renderer {
         check_pose(pose, "camera pose")?;
         opts.validate()?;
         let cam = self.lens.update(camera)?;
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: `frame_avx2` requires only AVX2, which the running CPU was just found to
+            // have.
+            unsafe { self.frame_avx2(scene, cam, camera, pose, opts, extra) };
+            return Ok(&self.out);
+        }
+        self.frame(scene, cam, camera, pose, opts, extra);
+        Ok(&self.out)
+    }
+
+    /// [`Renderer::frame`] compiled for AVX2: the loops of visibility, shading and finishing
+    /// take eight pixels an instruction instead of four. Rust never fuses multiply-adds, so the
+    /// operations, and the images, are the same as the portable build's.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn frame_avx2(
+        &mut self,
+        scene: &RenderScene,
+        cam: lens::RasterCam,
+        camera: &Camera,
+        pose: &Pose,
+        opts: &RenderOptions,
+        extra: &[Triangle],
+    ) {
+        self.frame(scene, cam, camera, pose, opts, extra);
+    }
+
+    /// Renders a frame of valid inputs into `self.out` (the body of [`Renderer::render`], for
+    /// any CPU; everything it calls per pixel is inlined into it, so that a build for wider
+    /// vectors covers all of it).
+    #[inline(always)]
+    fn frame(
+        &mut self,
+        scene: &RenderScene,
+        cam: lens::RasterCam,
+        camera: &Camera,
+        pose: &Pose,
+        opts: &RenderOptions,
+        extra: &[Triangle],
+    ) {
         let (w, h) = (camera.width as usize, camera.height as usize);
         let n = w * h;
         if self.out.rgb.dimensions() != (camera.width, camera.height) {
@@ -377,7 +418,6 @@ impl Renderer {
         }
         self.raster.stats.raster_ns = raster_ns;
         self.raster.stats.shade_ns = (start.elapsed().as_nanos() as u64).saturating_sub(raster_ns);
-        Ok(&self.out)
     }
 }
 

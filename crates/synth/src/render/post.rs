@@ -107,6 +107,7 @@ impl Finisher {
     /// Encodes row `y` of linear radiance (`scale`·(r, g, b)) into interleaved sRGB bytes.
     /// Noise depends only on the seed and the pixel: the same seed gives the same bytes.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub fn row(
         &self,
         y: usize,
@@ -156,6 +157,7 @@ impl Finisher {
 }
 
 /// Averages `subframes` of linear radiance (motion blur) and finishes the image.
+#[inline(always)]
 pub(crate) fn finish(
     accum: &[[f32; 3]],
     subframes: usize,
@@ -183,6 +185,7 @@ pub(crate) fn finish(
 /// White where the visible geometry changes: another dominant plane, a crease (normals more than
 /// about 20° apart), an occlusion boundary (the neighbour's depth is not on this pixel's plane),
 /// or geometry against empty space. Coplanar triangles of one surface draw no line.
+#[inline(always)]
 pub(crate) fn edges(
     shade: &Shade,
     vis: &[VisTri],
@@ -230,6 +233,7 @@ pub(crate) fn edges(
 }
 
 /// Replaces the image by the Sobel gradient magnitude of its luma (grey); `gray` is scratch.
+#[inline(always)]
 pub(crate) fn gradmag(rgb: &mut [u8], gray: &mut Vec<f32>, w: usize, h: usize) {
     gray.clear();
     gray.extend(

@@ -246,6 +246,7 @@ impl Raster {
     }
 
     /// Draws the scene and `extra` (this frame's people, drawn without the grid) for `view`.
+    #[inline(always)]
     pub fn draw(&mut self, scene: &RenderScene, view: &View, extra: &[Triangle]) {
         self.prepare(scene, view.cam);
         // Extra triangles first: they stand near the camera and occlude cells behind them.
@@ -365,6 +366,7 @@ impl Raster {
 
     /// False when the cell's box lies behind what is already drawn everywhere it projects. The
     /// corners' camera coordinates are one transform plus steps along the rotated cell edges.
+    #[inline(always)]
     fn cell_visible(&mut self, grid: &Grid, cell: usize, view: &View) -> bool {
         let (lo, _) = grid.cell_box(cell);
         let cam = view.cam;
@@ -396,6 +398,7 @@ impl Raster {
 
     /// True when everything in the raster rectangle `[x0, x1, y0, y1]` (pixels) is already nearer
     /// than `zmin` (or the rectangle is off the raster).
+    #[inline(always)]
     fn rect_hidden(&mut self, r: [f32; 4], zmin: f32) -> bool {
         let Some(cam) = self.cam else {
             return true;
@@ -425,6 +428,7 @@ impl Raster {
     }
 
     /// The farthest `1/z` of a coarse tile, refreshed if stale.
+    #[inline(always)]
     fn hiz_at(&mut self, tx: usize, ty: usize) -> f32 {
         let t = ty * self.tiles_w + tx;
         if self.hiz_dirty[t] {
@@ -453,6 +457,7 @@ impl Raster {
     }
 
     /// Culls, clips and fills one triangle.
+    #[inline(always)]
     fn draw_tri(&mut self, t: &SceneTri, view: &View) {
         self.stats.triangles_tested += 1;
         let p = t.v.map(|q| view.world_to_cam(q));
@@ -580,6 +585,7 @@ impl Raster {
     }
 
     /// Fills a snapped triangle: depth test against `1/z` from the plane `w`, top-left rule.
+    #[inline(always)]
     fn fill(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64), id: u32, w: [f32; 3]) -> bool {
         let Some(cam) = self.cam else {
             return false;

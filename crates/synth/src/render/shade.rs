@@ -118,6 +118,7 @@ pub(crate) struct Shade {
 impl Shade {
     /// Per output pixel: which triangle and its exact `1/z` at the pixel's (lens-mapped) raster
     /// position; per tile, the range of what it shows.
+    #[inline(always)]
     pub fn resolve(&mut self, raster: &Raster, lens: &Lens, w: usize, h: usize) {
         let n = w * h;
         if self.width != w || self.height != h {
@@ -196,6 +197,7 @@ impl Shade {
     }
 
     /// Chooses the lights of the frame, then of every tile.
+    #[inline(always)]
     pub fn choose_lights(&mut self, scene: &RenderScene, view: &View) {
         self.cand.clear();
         let storey = scene.storey_at(view.c);
@@ -322,6 +324,7 @@ impl Shade {
 
     /// Shades every output pixel into `sink`.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub fn shade(
         &mut self,
         scene: &RenderScene,
@@ -387,7 +390,8 @@ impl Shade {
             );
             let (e0, e1) = (&self.node_e[j0 * nx..][..nx], &self.node_e[j1 * nx..][..nx]);
             if direct {
-                for (x, (sx, sy)) in a.sx.iter_mut().zip(a.sy.iter_mut()).enumerate() {
+                // (An `i32` counter: it converts to `f32` in vector lanes, a `usize` does not.)
+                for ((sx, sy), x) in a.sx.iter_mut().zip(a.sy.iter_mut()).zip(0i32..) {
                     (*sx, *sy) = (x as f32, y as f32);
                 }
             } else {

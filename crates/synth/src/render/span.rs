@@ -53,6 +53,7 @@ impl RowArrays {
 
 /// Bilinear light of the grid for a whole row, whatever each node sees (`cols`: per pixel, the
 /// nodes left and right and the weight of the right one; `fy`: the weight of the lower row).
+#[inline(always)]
 pub(crate) fn grid_row(
     out: &mut [f32],
     cols: &[(u32, u32, f32)],
@@ -68,6 +69,7 @@ pub(crate) fn grid_row(
 }
 
 /// What the four grid nodes around each pixel of a row see.
+#[inline(always)]
 pub(crate) fn grid_keys(
     keys: &mut [Vec<u32>; 4],
     cols: &[(u32, u32, f32)],
@@ -89,6 +91,7 @@ pub(crate) fn grid_keys(
 
 /// Copies the grid's light into `e` over a run of the surface `key`; true when some pixel has a
 /// node that sees another surface (its light must then be found another way).
+#[inline(always)]
 pub(crate) fn grid_light(e: &mut [f32], grid_e: &[f32], keys: [&[u32]; 4], key: u32) -> bool {
     let mut off = false;
     let [a, b, c, d] = keys;
@@ -103,6 +106,7 @@ pub(crate) fn grid_light(e: &mut [f32], grid_e: &[f32], keys: [&[u32]; 4], key: 
 /// footprint on level 0 of material `m`'s texture (from the screen derivatives of u and v:
 /// du/dx = z·(d(u/z)/dx − u·d(1/z)/dx)).
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 pub(crate) fn tex_coords(
     t: &VisTri,
     m: &SceneMaterial,
@@ -148,6 +152,7 @@ pub(crate) fn lit(
 }
 
 /// Radiance of a run: albedo (already in `r, g, b`, or `flat` when given) times `light(e)`.
+#[inline(always)]
 pub(crate) fn radiance(
     (r, g, b): (&mut [f32], &mut [f32], &mut [f32]),
     e: &[f32],
