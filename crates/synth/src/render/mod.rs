@@ -389,15 +389,17 @@ impl Renderer {
             );
         }
         // Depth and planes of the current pose (the last sub-frame).
-        for i in 0..n {
-            let id = self.shade.vis[i];
-            if id == NONE {
-                self.out.depth[i] = 0.0;
-                self.out.plane[i] = 0;
+        // `1/z` is positive exactly where a triangle is seen, so depth is a loop without
+        // lookups (which vectorizes), and only planes look up triangles.
+        for (d, &wv) in self.out.depth.iter_mut().zip(&self.shade.w) {
+            *d = if wv > 0.0 { 1.0 / wv } else { 0.0 };
+        }
+        for (p, &id) in self.out.plane.iter_mut().zip(&self.shade.vis) {
+            *p = if id == NONE {
+                0
             } else {
-                self.out.depth[i] = 1.0 / self.shade.w[i];
-                self.out.plane[i] = self.raster.vis[id as usize].plane;
-            }
+                self.raster.vis[id as usize].plane
+            };
         }
         let rgb: &mut [u8] = &mut self.out.rgb;
         if subframes > 1 {

@@ -700,8 +700,10 @@ impl Raster {
 }
 
 /// The pixels `k ∈ [a, b] ⊆ [0, kmax]` of a row where the edge function `r + s·k` is ≥ 0
-/// (`inv = 1/s`); empty when `a > b`. The float estimate of the crossing is off by less than one,
-/// and the integer test then makes it exact.
+/// (`inv = 1/s`); empty when `a > b`. The float estimate of the crossing is the answer or one
+/// short of it, so one integer test (without a branch) makes it exact; a check, which always
+/// passes unless rounding misled the estimate by more, guards the answer. Rows take three of
+/// these each, and unpredictable branches here once cost more than the pixels of the row.
 #[inline(always)]
 fn edge_span(r: i64, s: i64, kmax: i64, inv: f64) -> (i64, i64) {
     let inside = |k: i64| r + s * k >= 0;
@@ -709,26 +711,34 @@ fn edge_span(r: i64, s: i64, kmax: i64, inv: f64) -> (i64, i64) {
         if r >= 0 {
             return (0, kmax);
         }
+        // The first pixel inside (`kmax + 1`: none).
         let est = (-(r as f64) * inv).clamp(0.0, (kmax + 1) as f64) as i64;
-        let mut k = est;
-        while k <= kmax && !inside(k) {
-            k += 1;
-        }
-        while k > 0 && inside(k - 1) {
-            k -= 1;
+        let mut k = (est + i64::from(!inside(est))).min(kmax + 1);
+        if !((k > kmax || inside(k)) && (k == 0 || !inside(k - 1))) {
+            k = est;
+            while k <= kmax && !inside(k) {
+                k += 1;
+            }
+            while k > 0 && inside(k - 1) {
+                k -= 1;
+            }
         }
         (k, kmax)
     } else if s < 0 {
         if r < 0 {
             return (1, 0);
         }
+        // The last pixel inside (−1: none).
         let est = ((r as f64) * -inv).clamp(-1.0, kmax as f64) as i64;
-        let mut k = est;
-        while k >= 0 && !inside(k) {
-            k -= 1;
-        }
-        while k < kmax && inside(k + 1) {
-            k += 1;
+        let mut k = (est + i64::from(inside(est + 1))).min(kmax);
+        if !((k < 0 || inside(k)) && (k == kmax || !inside(k + 1))) {
+            k = est;
+            while k >= 0 && !inside(k) {
+                k -= 1;
+            }
+            while k < kmax && inside(k + 1) {
+                k += 1;
+            }
         }
         (0, k)
     } else if r >= 0 {

@@ -474,14 +474,15 @@ impl Shade {
                         &mut a.v[run.clone()],
                         &mut a.rho2[run.clone()],
                     );
-                    let uvr = a.u[run.clone()]
-                        .iter()
-                        .zip(&a.v[run.clone()])
-                        .zip(&a.rho2[run.clone()]);
-                    for (((r, g), b), ((&u, &v), &rho2)) in
-                        r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut()).zip(uvr)
-                    {
-                        let c = m.mips.sample(u, v, rho2);
+                    let texels = &mut a.texel[run.clone()];
+                    m.mips.sample_run(
+                        &a.u[run.clone()],
+                        &a.v[run.clone()],
+                        &a.rho2[run.clone()],
+                        texels,
+                    );
+                    let px = r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut());
+                    for (((r, g), b), &c) in px.zip(&*texels) {
                         *r = lut.to_linear[(c & 0xff) as usize];
                         *g = lut.to_linear[((c >> 8) & 0xff) as usize];
                         *b = lut.to_linear[((c >> 16) & 0xff) as usize];

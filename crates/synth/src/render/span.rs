@@ -29,6 +29,8 @@ pub(crate) struct RowArrays {
     pub v: Vec<f32>,
     /// See `u`.
     pub rho2: Vec<f32>,
+    /// The texel of each pixel, packed sRGB.
+    pub texel: Vec<u32>,
 }
 
 impl RowArrays {
@@ -48,6 +50,7 @@ impl RowArrays {
         for k in &mut self.keys {
             k.resize(w, 0);
         }
+        self.texel.resize(w, 0);
     }
 }
 
