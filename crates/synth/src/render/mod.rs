@@ -1224,6 +1224,43 @@ mod tests {
         Ok(())
     }
 
+    /// The AVX2 build of a frame and the portable one do the same operations in the same
+    /// order, so they give the same images, depths and planes (the reference frames of
+    /// `tests/render_reference.rs` check only the build the testing CPU runs).
+    #[test]
+    fn render_portable_build_agrees_with_the_dispatched_one() -> R {
+        let mut world = box_world();
+        world.atmosphere.haze = 0.1;
+        let scene = RenderScene::new(&world)?;
+        let pose = look_at([1.0, 1.0, 1.5], [4.0, 4.0, 1.0])?;
+        let distorted = Camera::new(
+            96,
+            72,
+            60.0,
+            60.0,
+            47.5,
+            35.5,
+            Distortion::from_array([-0.3, 0.08, 0.001, -0.001, 0.0]),
+        )?;
+        for camera in [Camera::from_hfov(96, 72, 1.2)?, distorted] {
+            for mode in RenderMode::ALL {
+                let opts = RenderOptions {
+                    mode,
+                    seed: 7,
+                    ..RenderOptions::default()
+                };
+                let dispatched = Renderer::new()
+                    .render(&scene, &camera, &pose, &opts, &[])?
+                    .clone();
+                let mut portable = Renderer::new();
+                let cam = portable.lens.update(&camera)?;
+                portable.frame(&scene, cam, &camera, &pose, &opts, &[]);
+                assert!(portable.out == dispatched, "{mode}");
+            }
+        }
+        Ok(())
+    }
+
     #[test]
     fn render_mode_names_round_trip() {
         for m in RenderMode::ALL {
