@@ -108,6 +108,26 @@ pub(crate) struct Level {
 }
 
 impl Level {
+    /// The four texels around `(u, v)` (top-left, top-right, bottom-left, bottom-right, wrapping)
+    /// and the fractions of the way to the right and bottom ones, in 1/256.
+    #[inline(always)]
+    fn bilinear_taps(&self, u: f32, v: f32) -> ([usize; 4], u32, u32) {
+        let x = u * self.su - 0.5;
+        let y = v * self.sv - 0.5;
+        let (xi, yi) = (floor_i32(x), floor_i32(y));
+        // Fractions in 1/256 (the `as i32` conversions are single instructions, unlike floor).
+        let fx = ((x - xi as f32) * 256.0) as i32 as u32 & 0xff;
+        let fy = ((y - yi as f32) * 256.0) as i32 as u32 & 0xff;
+        let ix0 = xi & self.wmask;
+        let iy0 = yi & self.hmask;
+        let ix1 = (ix0 + 1) & self.wmask;
+        let iy1 = (iy0 + 1) & self.hmask;
+        let r0 = (iy0 << self.wshift) as usize;
+        let r1 = (iy1 << self.wshift) as usize;
+        let (ix0, ix1) = (ix0 as usize, ix1 as usize);
+        ([r0 + ix0, r0 + ix1, r1 + ix0, r1 + ix1], fx, fy)
+    }
+
     /// Index of the texel holding `(u, v)`, wrapping.
     #[inline(always)]
     fn nearest_index(&self, u: f32, v: f32) -> usize {
@@ -198,9 +218,9 @@ impl Mips {
     }
 
     /// [`Mips::sample`] over a run of pixels, eight at a time. Eight neighbours nearly always
-    /// take the nearest texel of one level (their footprints differ little), and then their
-    /// levels and texel addresses are computed in vector lanes, leaving only the fetches one at
-    /// a time; otherwise each pixel is sampled on its own.
+    /// sample one level the same way, nearest or bilinear (their footprints differ little), and
+    /// then their levels, texel addresses and blends are computed in vector lanes, leaving only
+    /// the fetches one at a time; otherwise each pixel is sampled on its own.
     #[inline(always)]
     pub fn sample_run(&self, u: &[f32], v: &[f32], rho2: &[f32], out: &mut [u32]) {
         const N: usize = 8;
@@ -214,8 +234,25 @@ impl Mips {
             for k in 0..N {
                 (e[k], lvl[k]) = self.level_of(r[k]);
             }
-            let one = (0..N).all(|k| lvl[k] == lvl[0] && self.nearest(e[k], lvl[k]));
-            if one {
+            let level = (0..N).all(|k| lvl[k] == lvl[0]);
+            let near = (0..N).map(|k| self.nearest(e[k], lvl[k]));
+            let (mut all_near, mut none_near) = (true, true);
+            for n in near {
+                all_near &= n;
+                none_near &= !n;
+            }
+            if level && none_near {
+                // All magnified on one level: taps and blends in lanes too.
+                let l = &self.levels[lvl[0] as usize];
+                let (mut taps, mut fx, mut fy) = ([[0usize; 4]; N], [0u32; N], [0u32; N]);
+                for k in 0..N {
+                    (taps[k], fx[k], fy[k]) = l.bilinear_taps(u[k], v[k]);
+                }
+                let c = taps.map(|t| t.map(|i| l.texels[i]));
+                for k in 0..N {
+                    o[k] = blend(c[k], fx[k], fy[k]);
+                }
+            } else if level && all_near {
                 let l = &self.levels[lvl[0] as usize];
                 let mut idx = [0usize; N];
                 for k in 0..N {
@@ -269,23 +306,17 @@ impl Mips {
             return l.texels[l.nearest_index(u, v)];
         }
         // Magnified: bilinear, so texels near the camera do not show as blocks.
-        let x = u * l.su - 0.5;
-        let y = v * l.sv - 0.5;
-        let (xi, yi) = (floor_i32(x), floor_i32(y));
-        // Fractions in 1/256 (the `as i32` conversions are single instructions, unlike floor).
-        let fx = ((x - xi as f32) * 256.0) as i32 as u32 & 0xff;
-        let fy = ((y - yi as f32) * 256.0) as i32 as u32 & 0xff;
-        let ix0 = xi & l.wmask;
-        let iy0 = yi & l.hmask;
-        let ix1 = (ix0 + 1) & l.wmask;
-        let iy1 = (iy0 + 1) & l.hmask;
-        let r0 = (iy0 << l.wshift) as usize;
-        let r1 = (iy1 << l.wshift) as usize;
-        let t = &l.texels;
-        let (c00, c10) = (t[r0 + ix0 as usize], t[r0 + ix1 as usize]);
-        let (c01, c11) = (t[r1 + ix0 as usize], t[r1 + ix1 as usize]);
-        lerp_packed(lerp_packed(c00, c10, fx), lerp_packed(c01, c11, fx), fy)
+        let (taps, fx, fy) = l.bilinear_taps(u, v);
+        let c = taps.map(|i| l.texels[i]);
+        blend(c, fx, fy)
     }
+}
+
+/// Bilinear blend of four packed sRGB texels (top-left, top-right, bottom-left, bottom-right)
+/// with fractions in 1/256.
+#[inline(always)]
+fn blend(c: [u32; 4], fx: u32, fy: u32) -> u32 {
+    lerp_packed(lerp_packed(c[0], c[1], fx), lerp_packed(c[2], c[3], fx), fy)
 }
 
 /// `min` as one instruction (`f32::min` also orders NaN, which costs several); returns `a` when
