@@ -7,8 +7,10 @@
 //! ```
 //! With `PNG_DIR`, writes one image per mode (and a distorted-lens and a shadowed one) there.
 //! `RENDER_SPEED_WORLD=default` measures the procedural default building instead, along a
-//! natural walk; `RENDER_SPEED_ONLY=textured@160` (mode@width) measures one case only. Times
-//! are the thread's CPU time where Linux reports it (a shared machine inflates wall time).
+//! natural walk; `RENDER_SPEED_WORLD=bench` measures what `indoorloc bench render` renders (the
+//! default dataset's world, forward rig, walk and camera, seed 1);
+//! `RENDER_SPEED_ONLY=textured@160` (mode@width) measures one case only. Times are the
+//! thread's CPU time where Linux reports it (a shared machine inflates wall time).
 
 use geom::{Camera, Distortion, Pose};
 use nalgebra::Point3;
@@ -24,8 +26,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t0 = Instant::now();
     // RENDER_SPEED_WORLD=default measures the procedural default building along a natural walk
     // instead of the office block built here.
-    let default_world = std::env::var("RENDER_SPEED_WORLD").is_ok_and(|w| w == "default");
-    let world = if default_world {
+    let which = std::env::var("RENDER_SPEED_WORLD").unwrap_or_default();
+    let default_world = which == "default";
+    // `indoorloc bench render`'s set-up (crates/lab/src/bench/mod.rs, `bench_render`).
+    let bench = (which == "bench").then(synth::dataset::SynthConfig::default);
+    let world = if let Some(cfg) = &bench {
+        synth::dataset::build_world(cfg)?.0
+    } else if default_world {
         synth::procedural::default_world(1, synth::Variant::Normal)
     } else {
         office()
@@ -38,7 +45,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         world.materials.len(),
         t0.elapsed().as_secs_f64() * 1e3
     );
-    let poses: Vec<Pose> = if default_world {
+    let poses: Vec<Pose> = if let Some(cfg) = &bench {
+        let rig = synth::dataset::rig_of(cfg.camera);
+        let walk_cfg = synth::trajectory::WalkConfig::for_rig(rig);
+        synth::trajectory::walk(&world, &walk_cfg, frames, cfg.seed)?
+            .into_iter()
+            .map(|f| f.pose)
+            .collect()
+    } else if default_world {
         let cfg = synth::trajectory::WalkConfig::default();
         synth::trajectory::walk(&world, &cfg, frames, 1)?
             .into_iter()
@@ -48,7 +62,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         walk(frames)
     };
     for (w, h) in [(160u32, 120u32), (320, 240)] {
-        let camera = Camera::from_hfov(w, h, 60f64.to_radians())?;
+        let camera = match &bench {
+            Some(cfg) => {
+                synth::trajectory::camera_for(&synth::dataset::rig_of(cfg.camera), w, h, cfg.seed)?
+            }
+            None => Camera::from_hfov(w, h, 60f64.to_radians())?,
+        };
         for mode in RenderMode::ALL {
             // RENDER_SPEED_ONLY=textured@160 (say) measures one case, for profiling.
             if let Ok(only) = std::env::var("RENDER_SPEED_ONLY")

@@ -107,6 +107,7 @@ impl Finisher {
     /// Encodes row `y` of linear radiance (`scale`·(r, g, b)) into interleaved sRGB bytes.
     /// Noise depends only on the seed and the pixel: the same seed gives the same bytes.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub fn row(
         &self,
         y: usize,
@@ -156,6 +157,7 @@ impl Finisher {
 }
 
 /// Averages `subframes` of linear radiance (motion blur) and finishes the image.
+#[inline(always)]
 pub(crate) fn finish(
     accum: &[[f32; 3]],
     subframes: usize,
@@ -183,6 +185,7 @@ pub(crate) fn finish(
 /// White where the visible geometry changes: another dominant plane, a crease (normals more than
 /// about 20° apart), an occlusion boundary (the neighbour's depth is not on this pixel's plane),
 /// or geometry against empty space. Coplanar triangles of one surface draw no line.
+#[inline(always)]
 pub(crate) fn edges(
     shade: &Shade,
     vis: &[VisTri],
@@ -230,27 +233,38 @@ pub(crate) fn edges(
 }
 
 /// Replaces the image by the Sobel gradient magnitude of its luma (grey); `gray` is scratch.
+#[inline(always)]
 pub(crate) fn gradmag(rgb: &mut [u8], gray: &mut Vec<f32>, w: usize, h: usize) {
     gray.clear();
     gray.extend(
         rgb.chunks_exact(3)
             .map(|c| 0.299 * c[0] as f32 + 0.587 * c[1] as f32 + 0.114 * c[2] as f32),
     );
-    let at = |x: isize, y: isize| -> f32 {
-        let xc = x.clamp(0, w as isize - 1) as usize;
-        let yc = y.clamp(0, h as isize - 1) as usize;
-        gray[yc * w + xc]
+    if w == 0 || h == 0 {
+        return;
+    }
+    let sobel = |r0: &[f32], r1: &[f32], r2: &[f32], (xm, x, xp): (usize, usize, usize)| -> u8 {
+        let gx = (r0[xp] + 2.0 * r1[xp] + r2[xp]) - (r0[xm] + 2.0 * r1[xm] + r2[xm]);
+        let gy = (r2[xm] + 2.0 * r2[x] + r2[xp]) - (r0[xm] + 2.0 * r0[x] + r0[xp]);
+        // A full black-to-white step gives 4·255; a quarter of that saturates.
+        ((gx * gx + gy * gy).sqrt() * 0.25).min(255.0) as u8
     };
-    for y in 0..h as isize {
-        for x in 0..w as isize {
-            let gx = (at(x + 1, y - 1) + 2.0 * at(x + 1, y) + at(x + 1, y + 1))
-                - (at(x - 1, y - 1) + 2.0 * at(x - 1, y) + at(x - 1, y + 1));
-            let gy = (at(x - 1, y + 1) + 2.0 * at(x, y + 1) + at(x + 1, y + 1))
-                - (at(x - 1, y - 1) + 2.0 * at(x, y - 1) + at(x + 1, y - 1));
-            // A full black-to-white step gives 4·255; a quarter of that saturates.
-            let m = ((gx * gx + gy * gy).sqrt() * 0.25).min(255.0) as u8;
-            let i = (y as usize * w + x as usize) * 3;
-            rgb[i..i + 3].fill(m);
+    for y in 0..h {
+        // Rows above and below, clamped at the image's edges.
+        let row = |y: usize| &gray[y * w..(y + 1) * w];
+        let (r0, r1, r2) = (row(y.saturating_sub(1)), row(y), row((y + 1).min(h - 1)));
+        let out = &mut rgb[3 * y * w..3 * (y + 1) * w];
+        let edge = |x: usize| sobel(r0, r1, r2, (x.saturating_sub(1), x, (x + 1).min(w - 1)));
+        let (first, last) = (edge(0), edge(w - 1));
+        // Inside the row every neighbour exists: one loop over shifted slices, no clamping,
+        // which vectorizes.
+        if w > 2 {
+            let inner = out[3..3 * (w - 1)].chunks_exact_mut(3);
+            for (x, px) in (1..w - 1).zip(inner) {
+                px.fill(sobel(r0, r1, r2, (x - 1, x, x + 1)));
+            }
         }
+        out[..3].fill(first);
+        out[3 * (w - 1)..].fill(last);
     }
 }

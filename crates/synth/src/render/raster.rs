@@ -158,16 +158,6 @@ pub(crate) struct VisTri {
 }
 
 impl VisTri {
-    /// A placeholder (never shaded).
-    pub const EMPTY: VisTri = VisTri {
-        w: [0.0; 3],
-        u: [0.0; 3],
-        v: [0.0; 3],
-        n: [0.0; 3],
-        plane: 0,
-        material: 0,
-    };
-
     /// `1/z` at a raster position (the same expression the fill loop uses, so the direct path
     /// reads back exactly what the depth test compared).
     #[inline(always)]
@@ -256,6 +246,7 @@ impl Raster {
     }
 
     /// Draws the scene and `extra` (this frame's people, drawn without the grid) for `view`.
+    #[inline(always)]
     pub fn draw(&mut self, scene: &RenderScene, view: &View, extra: &[Triangle]) {
         self.prepare(scene, view.cam);
         // Extra triangles first: they stand near the camera and occlude cells behind them.
@@ -375,37 +366,41 @@ impl Raster {
 
     /// False when the cell's box lies behind what is already drawn everywhere it projects. The
     /// corners' camera coordinates are one transform plus steps along the rotated cell edges.
+    #[inline(always)]
     fn cell_visible(&mut self, grid: &Grid, cell: usize, view: &View) -> bool {
         let (lo, _) = grid.cell_box(cell);
         let cam = view.cam;
         let q0 = view.world_to_cam(lo);
         let [ex, ey, ez] = self.cell_axes;
-        let (mut x0, mut x1, mut y0, mut y1) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
-        let mut zmin = f32::MAX;
-        for corner in 0..8 {
-            let (a, b, c) = (
-                (corner & 1) as f32,
-                ((corner >> 1) & 1) as f32,
-                ((corner >> 2) & 1) as f32,
-            );
-            let q: [f32; 3] = std::array::from_fn(|k| q0[k] + a * ex[k] + b * ey[k] + c * ez[k]);
-            if !(q[2] > NEAR) {
-                return true;
-            }
-            let iz = 1.0 / q[2];
-            let x = cam.fx * q[0] * iz + cam.cx;
-            let y = cam.fy * q[1] * iz + cam.cy;
-            x0 = fmin(x0, x);
-            x1 = fmax(x1, x);
-            y0 = fmin(y0, y);
-            y1 = fmax(y1, y);
-            zmin = fmin(zmin, q[2]);
+        // The eight corners in lanes (corner `c` steps along x, y, z by its bits 0, 1, 2), so
+        // their projection is a few vector instructions.
+        let step = |c: usize, k: usize| -> f32 {
+            let (a, b, c) = ((c & 1) as f32, ((c >> 1) & 1) as f32, ((c >> 2) & 1) as f32);
+            q0[k] + a * ex[k] + b * ey[k] + c * ez[k]
+        };
+        let qx: [f32; 8] = std::array::from_fn(|c| step(c, 0));
+        let qy: [f32; 8] = std::array::from_fn(|c| step(c, 1));
+        let qz: [f32; 8] = std::array::from_fn(|c| step(c, 2));
+        if qz.iter().any(|&z| !(z > NEAR)) {
+            return true;
         }
+        let (mut sx, mut sy) = ([0.0f32; 8], [0.0f32; 8]);
+        for c in 0..8 {
+            let iz = 1.0 / qz[c];
+            sx[c] = cam.fx * qx[c] * iz + cam.cx;
+            sy[c] = cam.fy * qy[c] * iz + cam.cy;
+        }
+        let x0 = sx.into_iter().fold(f32::MAX, fmin);
+        let x1 = sx.into_iter().fold(f32::MIN, fmax);
+        let y0 = sy.into_iter().fold(f32::MAX, fmin);
+        let y1 = sy.into_iter().fold(f32::MIN, fmax);
+        let zmin = qz.into_iter().fold(f32::MAX, fmin);
         !self.rect_hidden([x0, x1, y0, y1], zmin)
     }
 
     /// True when everything in the raster rectangle `[x0, x1, y0, y1]` (pixels) is already nearer
     /// than `zmin` (or the rectangle is off the raster).
+    #[inline(always)]
     fn rect_hidden(&mut self, r: [f32; 4], zmin: f32) -> bool {
         let Some(cam) = self.cam else {
             return true;
@@ -435,26 +430,50 @@ impl Raster {
     }
 
     /// The farthest `1/z` of a coarse tile, refreshed if stale.
+    #[inline(always)]
     fn hiz_at(&mut self, tx: usize, ty: usize) -> f32 {
         let t = ty * self.tiles_w + tx;
         if self.hiz_dirty[t] {
             let cam = self.cam.map(|c| (c.w, c.h)).unwrap_or((0, 0));
-            let mut m = f32::MAX;
+            let (x0, x1) = (tx * HIZ, ((tx + 1) * HIZ).min(cam.0));
+            // One running minimum per column, reduced at the end: the same minimum (the buffer
+            // holds no NaN) as a running scalar, but the compiler keeps the columns in vector
+            // lanes.
+            let mut lanes = [f32::MAX; HIZ];
             for y in ty * HIZ..((ty + 1) * HIZ).min(cam.1) {
-                let row = &self.zbuf[y * cam.0 + tx * HIZ..y * cam.0 + ((tx + 1) * HIZ).min(cam.0)];
-                for &w in row {
-                    m = fmin(m, w);
+                let row = &self.zbuf[y * cam.0 + x0..y * cam.0 + x1];
+                if let Ok(row) = <&[f32; HIZ]>::try_from(row) {
+                    for (m, &w) in lanes.iter_mut().zip(row) {
+                        *m = fmin(*m, w);
+                    }
+                } else {
+                    for (m, &w) in lanes.iter_mut().zip(row) {
+                        *m = fmin(*m, w);
+                    }
                 }
             }
-            self.hiz[t] = m;
+            self.hiz[t] = lanes.into_iter().fold(f32::MAX, fmin);
             self.hiz_dirty[t] = false;
         }
         self.hiz[t]
     }
 
     /// Culls, clips and fills one triangle.
+    #[inline(always)]
     fn draw_tri(&mut self, t: &SceneTri, view: &View) {
         self.stats.triangles_tested += 1;
+        // The triangle's plane in camera space is nc · q = dc; the camera (q = 0) sees the
+        // front face when it lies on the normal's side: 0 > dc. (Tested first: it needs no
+        // transformed corners.)
+        let dc = t.d - dot32(t.n, view.c);
+        // Edge-on (the plane passes through the eye) or not finite: covers nothing.
+        if !(dc.abs() > 1e-7) {
+            return;
+        }
+        let front = dc < 0.0;
+        if t.cull && !front {
+            return;
+        }
         let p = t.v.map(|q| view.world_to_cam(q));
         let behind = [p[0][2] < NEAR, p[1][2] < NEAR, p[2][2] < NEAR];
         if behind[0] && behind[1] && behind[2] {
@@ -467,17 +486,6 @@ impl Raster {
             if dot32(*s, p[0]) < 0.0 && dot32(*s, p[1]) < 0.0 && dot32(*s, p[2]) < 0.0 {
                 return;
             }
-        }
-        // The triangle's plane in camera space is nc · q = dc; the camera (q = 0) sees the
-        // front face when it lies on the normal's side: 0 > dc.
-        let dc = t.d - dot32(t.n, view.c);
-        // Edge-on (the plane passes through the eye) or not finite: covers nothing.
-        if !(dc.abs() > 1e-7) {
-            return;
-        }
-        let front = dc < 0.0;
-        if t.cull && !front {
-            return;
         }
         // Clip (rarely needed) and project.
         let cam = view.cam;
@@ -580,6 +588,7 @@ impl Raster {
     }
 
     /// Fills a snapped triangle: depth test against `1/z` from the plane `w`, top-left rule.
+    #[inline(always)]
     fn fill(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64), id: u32, w: [f32; 3]) -> bool {
         let Some(cam) = self.cam else {
             return false;
@@ -635,7 +644,25 @@ impl Raster {
                     k1 = k1.min(b);
                 }
             }
-            if k0 <= k1 {
+            if wide && k0 <= k1 {
+                // The span is exact: every pixel in it is inside, so the loop is only the depth
+                // test, which vectorizes.
+                let span = row + (x0 + k0) as usize..row + (x0 + k1) as usize + 1;
+                let mut any = false;
+                for ((z, idx), x) in self.zbuf[span.clone()]
+                    .iter_mut()
+                    .zip(&mut self.ids[span])
+                    .zip((x0 + k0) as i32..)
+                {
+                    // (`i32` converts to `f32` in vector lanes; `i64` would not.)
+                    let wv = w[0] * x as f32 + wrow;
+                    let nearer = wv > *z;
+                    *z = if nearer { wv } else { *z };
+                    *idx = if nearer { id } else { *idx };
+                    any |= nearer;
+                }
+                wrote |= any;
+            } else if k0 <= k1 {
                 let (mut e0, mut e1, mut e2) = (r0 + sx0 * k0, r1 + sx1 * k0, r2 + sx2 * k0);
                 let span = row + (x0 + k0) as usize..row + (x0 + k1) as usize + 1;
                 let mut seen = false;
@@ -676,8 +703,10 @@ impl Raster {
 }
 
 /// The pixels `k ∈ [a, b] ⊆ [0, kmax]` of a row where the edge function `r + s·k` is ≥ 0
-/// (`inv = 1/s`); empty when `a > b`. The float estimate of the crossing is off by less than one,
-/// and the integer test then makes it exact.
+/// (`inv = 1/s`); empty when `a > b`. The float estimate of the crossing is the answer or one
+/// short of it, so one integer test (without a branch) makes it exact; a check, which always
+/// passes unless rounding misled the estimate by more, guards the answer. Rows take three of
+/// these each, and unpredictable branches here once cost more than the pixels of the row.
 #[inline(always)]
 fn edge_span(r: i64, s: i64, kmax: i64, inv: f64) -> (i64, i64) {
     let inside = |k: i64| r + s * k >= 0;
@@ -685,26 +714,34 @@ fn edge_span(r: i64, s: i64, kmax: i64, inv: f64) -> (i64, i64) {
         if r >= 0 {
             return (0, kmax);
         }
+        // The first pixel inside (`kmax + 1`: none).
         let est = (-(r as f64) * inv).clamp(0.0, (kmax + 1) as f64) as i64;
-        let mut k = est;
-        while k <= kmax && !inside(k) {
-            k += 1;
-        }
-        while k > 0 && inside(k - 1) {
-            k -= 1;
+        let mut k = (est + i64::from(!inside(est))).min(kmax + 1);
+        if !((k > kmax || inside(k)) && (k == 0 || !inside(k - 1))) {
+            k = est;
+            while k <= kmax && !inside(k) {
+                k += 1;
+            }
+            while k > 0 && inside(k - 1) {
+                k -= 1;
+            }
         }
         (k, kmax)
     } else if s < 0 {
         if r < 0 {
             return (1, 0);
         }
+        // The last pixel inside (−1: none).
         let est = ((r as f64) * -inv).clamp(-1.0, kmax as f64) as i64;
-        let mut k = est;
-        while k >= 0 && !inside(k) {
-            k -= 1;
-        }
-        while k < kmax && inside(k + 1) {
-            k += 1;
+        let mut k = (est + i64::from(inside(est + 1))).min(kmax);
+        if !((k < 0 || inside(k)) && (k == kmax || !inside(k + 1))) {
+            k = est;
+            while k >= 0 && !inside(k) {
+                k -= 1;
+            }
+            while k < kmax && inside(k + 1) {
+                k += 1;
+            }
         }
         (0, k)
     } else if r >= 0 {

@@ -107,6 +107,36 @@ pub(crate) struct Level {
     texels: Vec<u32>,
 }
 
+impl Level {
+    /// The four texels around `(u, v)` (top-left, top-right, bottom-left, bottom-right, wrapping)
+    /// and the fractions of the way to the right and bottom ones, in 1/256.
+    #[inline(always)]
+    fn bilinear_taps(&self, u: f32, v: f32) -> ([usize; 4], u32, u32) {
+        let x = u * self.su - 0.5;
+        let y = v * self.sv - 0.5;
+        let (xi, yi) = (floor_i32(x), floor_i32(y));
+        // Fractions in 1/256 (the `as i32` conversions are single instructions, unlike floor).
+        let fx = ((x - xi as f32) * 256.0) as i32 as u32 & 0xff;
+        let fy = ((y - yi as f32) * 256.0) as i32 as u32 & 0xff;
+        let ix0 = xi & self.wmask;
+        let iy0 = yi & self.hmask;
+        let ix1 = (ix0 + 1) & self.wmask;
+        let iy1 = (iy0 + 1) & self.hmask;
+        let r0 = (iy0 << self.wshift) as usize;
+        let r1 = (iy1 << self.wshift) as usize;
+        let (ix0, ix1) = (ix0 as usize, ix1 as usize);
+        ([r0 + ix0, r0 + ix1, r1 + ix0, r1 + ix1], fx, fy)
+    }
+
+    /// Index of the texel holding `(u, v)`, wrapping.
+    #[inline(always)]
+    fn nearest_index(&self, u: f32, v: f32) -> usize {
+        let xi = floor_i32(u * self.su) & self.wmask;
+        let yi = floor_i32(v * self.sv) & self.hmask;
+        ((yi << self.wshift) | xi) as usize
+    }
+}
+
 /// A mip-mapped texture.
 #[derive(Clone, Debug)]
 pub(crate) struct Mips {
@@ -187,47 +217,106 @@ impl Mips {
         }
     }
 
+    /// [`Mips::sample`] over a run of pixels, eight at a time. Eight neighbours nearly always
+    /// sample one level the same way, nearest or bilinear (their footprints differ little), and
+    /// then their levels, texel addresses and blends are computed in vector lanes, leaving only
+    /// the fetches one at a time; otherwise each pixel is sampled on its own.
+    #[inline(always)]
+    pub fn sample_run(&self, u: &[f32], v: &[f32], rho2: &[f32], out: &mut [u32]) {
+        const N: usize = 8;
+        let mut chunks = out.chunks_exact_mut(N);
+        let lanes = u
+            .chunks_exact(N)
+            .zip(v.chunks_exact(N))
+            .zip(rho2.chunks_exact(N));
+        for (o, ((u, v), r)) in (&mut chunks).zip(lanes) {
+            let (mut e, mut lvl) = ([0i32; N], [0i32; N]);
+            for k in 0..N {
+                (e[k], lvl[k]) = self.level_of(r[k]);
+            }
+            let level = (0..N).all(|k| lvl[k] == lvl[0]);
+            let near = (0..N).map(|k| self.nearest(e[k], lvl[k]));
+            let (mut all_near, mut none_near) = (true, true);
+            for n in near {
+                all_near &= n;
+                none_near &= !n;
+            }
+            if level && none_near {
+                // All magnified on one level: taps and blends in lanes too.
+                let l = &self.levels[lvl[0] as usize];
+                let (mut taps, mut fx, mut fy) = ([[0usize; 4]; N], [0u32; N], [0u32; N]);
+                for k in 0..N {
+                    (taps[k], fx[k], fy[k]) = l.bilinear_taps(u[k], v[k]);
+                }
+                let c = taps.map(|t| t.map(|i| l.texels[i]));
+                for k in 0..N {
+                    o[k] = blend(c[k], fx[k], fy[k]);
+                }
+            } else if level && all_near {
+                let l = &self.levels[lvl[0] as usize];
+                let mut idx = [0usize; N];
+                for k in 0..N {
+                    idx[k] = l.nearest_index(u[k], v[k]);
+                }
+                for (o, i) in o.iter_mut().zip(idx) {
+                    *o = l.texels[i];
+                }
+            } else {
+                for k in 0..N {
+                    o[k] = self.sample(u[k], v[k], r[k]);
+                }
+            }
+        }
+        for k in out.len() - out.len() % N..out.len() {
+            out[k] = self.sample(u[k], v[k], rho2[k]);
+        }
+    }
+
     /// The texture's mean colour in linear light (its last, one-texel level).
     pub fn mean_linear(&self) -> [f32; 3] {
         let c = self.levels.last().map_or(0, |l| l.texels[0]);
         [0, 8, 16].map(|shift| srgb_to_linear(f32::from(((c >> shift) & 0xff) as u8) / 255.0))
     }
 
+    /// The level of detail for `rho2`, the squared texel footprint of a pixel on level 0:
+    /// `floor(log2 rho²)` from the float's exponent, and the level where a pixel spans about one
+    /// texel (`round(log2 rho)`: half a level rounds up), at most the last.
+    #[inline(always)]
+    fn level_of(&self, rho2: f32) -> (i32, i32) {
+        let e = ((rho2.to_bits() >> 23) & 0xff) as i32 - 127;
+        let last = self.levels.len() as i32 - 1;
+        (e, ((e + 1) >> 1).max(0).min(last))
+    }
+
+    /// Where a pixel of footprint exponent `e` on level `lvl` takes the nearest texel: it is
+    /// minified (covers a texel or more of level 0), so the level already averages what it
+    /// covers; or it is on the last level, of one texel.
+    #[inline(always)]
+    fn nearest(&self, e: i32, lvl: i32) -> bool {
+        e >= 0 || lvl == self.levels.len() as i32 - 1
+    }
+
     /// Bilinear sample at `(u, v)` on the mip level whose texels are about one pixel big, given
     /// `rho2`, the squared texel footprint of a pixel on level 0. Returns packed sRGB.
     #[inline(always)]
     pub fn sample(&self, u: f32, v: f32, rho2: f32) -> u32 {
-        // floor(log2 rho²) from the float's exponent; rounding half a level up picks the level
-        // where a pixel spans about one texel (round(log2 rho)).
-        let e = ((rho2.to_bits() >> 23) & 0xff) as i32 - 127;
-        let last = self.levels.len() - 1;
-        let lvl = (((e + 1) >> 1).max(0) as usize).min(last);
-        let l = &self.levels[lvl];
-        if e >= 0 || lvl == last {
-            // Minified (a pixel covers a texel or more of level 0): the mip level already
-            // averages what the pixel covers, so its nearest texel is enough.
-            let xi = floor_i32(u * l.su) & l.wmask;
-            let yi = floor_i32(v * l.sv) & l.hmask;
-            return l.texels[((yi << l.wshift) | xi) as usize];
+        let (e, lvl) = self.level_of(rho2);
+        let l = &self.levels[lvl as usize];
+        if self.nearest(e, lvl) {
+            return l.texels[l.nearest_index(u, v)];
         }
         // Magnified: bilinear, so texels near the camera do not show as blocks.
-        let x = u * l.su - 0.5;
-        let y = v * l.sv - 0.5;
-        let (xi, yi) = (floor_i32(x), floor_i32(y));
-        // Fractions in 1/256 (the `as i32` conversions are single instructions, unlike floor).
-        let fx = ((x - xi as f32) * 256.0) as i32 as u32 & 0xff;
-        let fy = ((y - yi as f32) * 256.0) as i32 as u32 & 0xff;
-        let ix0 = xi & l.wmask;
-        let iy0 = yi & l.hmask;
-        let ix1 = (ix0 + 1) & l.wmask;
-        let iy1 = (iy0 + 1) & l.hmask;
-        let r0 = (iy0 << l.wshift) as usize;
-        let r1 = (iy1 << l.wshift) as usize;
-        let t = &l.texels;
-        let (c00, c10) = (t[r0 + ix0 as usize], t[r0 + ix1 as usize]);
-        let (c01, c11) = (t[r1 + ix0 as usize], t[r1 + ix1 as usize]);
-        lerp_packed(lerp_packed(c00, c10, fx), lerp_packed(c01, c11, fx), fy)
+        let (taps, fx, fy) = l.bilinear_taps(u, v);
+        let c = taps.map(|i| l.texels[i]);
+        blend(c, fx, fy)
     }
+}
+
+/// Bilinear blend of four packed sRGB texels (top-left, top-right, bottom-left, bottom-right)
+/// with fractions in 1/256.
+#[inline(always)]
+fn blend(c: [u32; 4], fx: u32, fy: u32) -> u32 {
+    lerp_packed(lerp_packed(c[0], c[1], fx), lerp_packed(c[2], c[3], fx), fy)
 }
 
 /// `min` as one instruction (`f32::min` also orders NaN, which costs several); returns `a` when

@@ -25,7 +25,8 @@ use super::RenderMode;
 use super::lens::Lens;
 use super::post::Sensor;
 use super::raster::{NONE, Raster, Stamps, View, VisTri};
-use super::scene::{RenderScene, dot32, fmax, luts};
+use super::scene::{RenderScene, dot32, luts};
+use super::span;
 
 /// Tile side for light lists, pixels.
 const TILE: usize = 16;
@@ -108,6 +109,8 @@ pub(crate) struct Shade {
     cols: Vec<(u32, u32, f32)>,
     /// Per pixel row: the same for the nodes above and below.
     rows: Vec<(u32, u32, f32)>,
+    /// Per-row arrays of the shader.
+    arrays: super::span::RowArrays,
     width: usize,
     height: usize,
 }
@@ -115,6 +118,7 @@ pub(crate) struct Shade {
 impl Shade {
     /// Per output pixel: which triangle and its exact `1/z` at the pixel's (lens-mapped) raster
     /// position; per tile, the range of what it shows.
+    #[inline(always)]
     pub fn resolve(&mut self, raster: &Raster, lens: &Lens, w: usize, h: usize) {
         let n = w * h;
         if self.width != w || self.height != h {
@@ -193,6 +197,7 @@ impl Shade {
     }
 
     /// Chooses the lights of the frame, then of every tile.
+    #[inline(always)]
     pub fn choose_lights(&mut self, scene: &RenderScene, view: &View) {
         self.cand.clear();
         let storey = scene.storey_at(view.c);
@@ -319,6 +324,7 @@ impl Shade {
 
     /// Shades every output pixel into `sink`.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub fn shade(
         &mut self,
         scene: &RenderScene,
@@ -365,16 +371,13 @@ impl Shade {
         for v in [&mut *rr, &mut *rg, &mut *rb] {
             v.resize(w, 0.0);
         }
+        let mut a = std::mem::take(&mut self.arrays);
+        a.resize(w);
         let finisher = match &sink {
             Sink::Bytes(_, s) => Some(super::post::Finisher::new(*s, w, h)),
             Sink::Accum(..) => None,
         };
         let mut sink = sink;
-        // The triangle of the previous pixel, and what it implies (runs of pixels share one).
-        let mut cur = NONE;
-        let mut t = &VisTri::EMPTY;
-        let mut m = &mats[0];
-        let mut key = NONE;
         for y in 0..h {
             let (j0, j1, fy) = self.rows[y];
             let (j0, j1) = (j0 as usize, j1 as usize);
@@ -386,114 +389,149 @@ impl Shade {
                 &self.node_id[j1 * nx..][..nx],
             );
             let (e0, e1) = (&self.node_e[j0 * nx..][..nx], &self.node_e[j1 * nx..][..nx]);
-            let outs = rr.iter_mut().zip(rg.iter_mut()).zip(rb.iter_mut());
-            let pixels = vis_row.iter().zip(w_row).zip(outs).zip(&self.cols);
-            for (x, (((&id, &wv), ((or, og), ob)), &(k0, k1, fx))) in pixels.enumerate() {
+            if direct {
+                // (An `i32` counter: it converts to `f32` in vector lanes, a `usize` does not.)
+                for ((sx, sy), x) in a.sx.iter_mut().zip(a.sy.iter_mut()).zip(0i32..) {
+                    (*sx, *sy) = (x as f32, y as f32);
+                }
+            } else {
+                for ((sx, sy), s) in a.sx.iter_mut().zip(a.sy.iter_mut()).zip(&lens.map[row..]) {
+                    (*sx, *sy) = (s.sx, s.sy);
+                }
+            }
+            span::grid_row(&mut a.grid_e, &self.cols, (e0, e1), fy);
+            span::grid_keys(&mut a.keys, &self.cols, id0, id1);
+            // Runs of pixels that see one triangle (or nothing).
+            let mut x0 = 0;
+            while x0 < w {
+                let id = vis_row[x0];
+                let x1 = x0 + vis_row[x0..].iter().take_while(|&&v| v == id).count();
+                let run = x0..x1;
+                x0 = x1;
+                let (r, g, b) = (
+                    &mut rr[run.clone()],
+                    &mut rg[run.clone()],
+                    &mut rb[run.clone()],
+                );
                 if id == NONE {
-                    (*or, *og, *ob) = (background[0], background[1], background[2]);
+                    r.fill(background[0]);
+                    g.fill(background[1]);
+                    b.fill(background[2]);
                     continue;
                 }
-                if id != cur {
-                    cur = id;
-                    t = &vis[id as usize];
-                    m = &mats[t.material as usize];
-                    key = light_key(t, id);
-                }
-                let z = 1.0 / wv;
-                let (sx, sy) = if direct {
-                    (x as f32, y as f32)
-                } else {
-                    let s = lens.map[row + x];
-                    (s.sx, s.sy)
-                };
-                // Light: interpolated on the grid when its four nodes see this surface.
-                let (k0, k1) = (k0 as usize, k1 as usize);
-                let same = [
-                    id0[k0] == key,
-                    id0[k1] == key,
-                    id1[k0] == key,
-                    id1[k1] == key,
-                ];
-                let e = if same[0] && same[1] && same[2] && same[3] {
-                    let top = e0[k0] + (e0[k1] - e0[k0]) * fx;
-                    let bot = e1[k0] + (e1[k1] - e1[k0]) * fx;
-                    top + (bot - top) * fy
-                } else if same[0] || same[1] || same[2] || same[3] {
-                    // Near an edge of the surface: the bilinear weights of the nodes on it,
-                    // renormalised (light varies little over the few pixels to them).
-                    let wts = [
-                        (1.0 - fx) * (1.0 - fy),
-                        fx * (1.0 - fy),
-                        (1.0 - fx) * fy,
-                        fx * fy,
-                    ];
-                    let vals = [e0[k0], e0[k1], e1[k0], e1[k1]];
-                    let (mut sw, mut se) = (0.0, 0.0);
-                    for k in 0..4 {
-                        if same[k] {
-                            sw += wts[k];
-                            se += wts[k] * vals[k];
+                let t = &vis[id as usize];
+                let m = &mats[t.material as usize];
+                let key = light_key(t, id);
+                // Light: interpolated on the grid where the four nodes around a pixel see this
+                // surface.
+                let keys = [0, 1, 2, 3].map(|k| &a.keys[k][run.clone()]);
+                if span::grid_light(&mut a.e[run.clone()], &a.grid_e[run.clone()], keys, key) {
+                    for x in run.clone() {
+                        let (k0, k1, fx) = self.cols[x];
+                        let (k0, k1) = (k0 as usize, k1 as usize);
+                        let same = [id0[k0], id0[k1], id1[k0], id1[k1]].map(|n| n == key);
+                        if same[0] && same[1] && same[2] && same[3] {
+                            continue;
                         }
+                        a.e[x] = if same[0] || same[1] || same[2] || same[3] {
+                            // Near an edge of the surface: the bilinear weights of the nodes
+                            // on it, renormalised (light varies little over the few pixels to
+                            // them).
+                            let wts = [
+                                (1.0 - fx) * (1.0 - fy),
+                                fx * (1.0 - fy),
+                                (1.0 - fx) * fy,
+                                fx * fy,
+                            ];
+                            let vals = [e0[k0], e0[k1], e1[k0], e1[k1]];
+                            let (mut sw, mut se) = (0.0, 0.0);
+                            for k in 0..4 {
+                                if same[k] {
+                                    sw += wts[k];
+                                    se += wts[k] * vals[k];
+                                }
+                            }
+                            if sw > 0.05 {
+                                se / sw
+                            } else {
+                                exact += 1;
+                                self.irradiance_at(scene, vis, stamps, lens, view, x, y, shadows)
+                            }
+                        } else {
+                            exact += 1;
+                            self.irradiance_at(scene, vis, stamps, lens, view, x, y, shadows)
+                        };
                     }
-                    if sw > 0.05 {
-                        se / sw
-                    } else {
-                        exact += 1;
-                        self.irradiance_at(scene, vis, stamps, lens, view, x, y, shadows)
+                }
+                let (sx, sy) = (&a.sx[run.clone()], &a.sy[run.clone()]);
+                let ws = &w_row[run.clone()];
+                let flat = if textured {
+                    span::tex_coords(
+                        t,
+                        m,
+                        (sx, sy, ws),
+                        &mut a.u[run.clone()],
+                        &mut a.v[run.clone()],
+                        &mut a.rho2[run.clone()],
+                    );
+                    let texels = &mut a.texel[run.clone()];
+                    m.mips.sample_run(
+                        &a.u[run.clone()],
+                        &a.v[run.clone()],
+                        &a.rho2[run.clone()],
+                        texels,
+                    );
+                    let px = r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut());
+                    for (((r, g), b), &c) in px.zip(&*texels) {
+                        *r = lut.to_linear[(c & 0xff) as usize];
+                        *g = lut.to_linear[((c >> 8) & 0xff) as usize];
+                        *b = lut.to_linear[((c >> 16) & 0xff) as usize];
                     }
+                    None
                 } else {
-                    exact += 1;
-                    self.irradiance_at(scene, vis, stamps, lens, view, x, y, shadows)
+                    Some(m.albedo)
                 };
-                let albedo = if textured {
-                    let u = (t.u[0] * sx + (t.u[1] * sy + t.u[2])) * z;
-                    let v = (t.v[0] * sx + (t.v[1] * sy + t.v[2])) * z;
-                    // Screen derivatives of u and v: du/dx = z·(d(u/z)/dx − u·d(1/z)/dx).
-                    let dudx = t.u[0] - u * t.w[0];
-                    let dudy = t.u[1] - u * t.w[1];
-                    let dvdx = t.v[0] - v * t.w[0];
-                    let dvdy = t.v[1] - v * t.w[1];
-                    let rx = dudx * dudx * m.mips.su2 + dvdx * dvdx * m.mips.sv2;
-                    let ry = dudy * dudy * m.mips.su2 + dvdy * dvdy * m.mips.sv2;
-                    let c = m.mips.sample(u, v, fmax(rx, ry) * (z * z));
-                    [
-                        lut.to_linear[(c & 0xff) as usize],
-                        lut.to_linear[((c >> 8) & 0xff) as usize],
-                        lut.to_linear[((c >> 16) & 0xff) as usize],
-                    ]
-                } else {
-                    m.albedo
-                };
-                let light = if m.unlit && textured {
+                let e = &a.e[run.clone()];
+                if m.unlit && textured {
                     // Its light is in its colours already (a scan's photographs).
-                    scene.unlit_gain
+                    span::radiance((r, g, b), e, flat, |_| scene.unlit_gain);
                 } else if m.unlit {
                     // `shaded` has no photograph to show, and a scan has no lamps: a headlight
                     // shows its form, as a BIM model's shaded render does.
-                    let r =
-                        [0, 1, 2].map(|k| view.ray0[k] + sx * view.ray_x[k] + sy * view.ray_y[k]);
-                    let cos = dot32(t.n, r).abs() / dot32(r, r).sqrt();
-                    scene.unlit_gain * (0.3 + 0.7 * cos)
+                    let albedo = m.albedo;
+                    for ((((r, g), b), &sx), &sy) in r
+                        .iter_mut()
+                        .zip(g.iter_mut())
+                        .zip(b.iter_mut())
+                        .zip(sx)
+                        .zip(sy)
+                    {
+                        let ray = [0, 1, 2]
+                            .map(|k| view.ray0[k] + sx * view.ray_x[k] + sy * view.ray_y[k]);
+                        let cos = dot32(t.n, ray).abs() / dot32(ray, ray).sqrt();
+                        let light = scene.unlit_gain * (0.3 + 0.7 * cos);
+                        (*r, *g, *b) = (albedo[0] * light, albedo[1] * light, albedo[2] * light);
+                    }
                 } else {
-                    let e = scene.ambient + e;
-                    let light = if m.window {
-                        0.05 + 0.3 * e + WINDOW_GAIN * scene.daylight
-                    } else {
-                        e
-                    };
-                    light + m.emissive * EMISSIVE_GAIN
-                };
-                let mut rad = albedo.map(|a| a * light);
+                    let (ambient, daylight) = (scene.ambient, scene.daylight);
+                    span::radiance((r, g, b), e, flat, |e| {
+                        span::lit(m, e, ambient, daylight, WINDOW_GAIN, EMISSIVE_GAIN)
+                    });
+                }
                 if scene.haze > 0.0 {
-                    let rx = (sx - cam.cx) / cam.fx;
-                    let ry = (sy - cam.cy) / cam.fy;
-                    let dist = z * (1.0 + rx * rx + ry * ry).sqrt();
-                    let f = (-scene.haze * dist).exp();
-                    for (r, hc) in rad.iter_mut().zip(scene.haze_color) {
-                        *r = *r * f + hc * (1.0 - f);
+                    let px = r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut());
+                    for ((((r, g), b), (&sx, &sy)), &wv) in px.zip(sx.iter().zip(sy)).zip(ws) {
+                        let z = 1.0 / wv;
+                        let rx = (sx - cam.cx) / cam.fx;
+                        let ry = (sy - cam.cy) / cam.fy;
+                        let dist = z * (1.0 + rx * rx + ry * ry).sqrt();
+                        let f = (-scene.haze * dist).exp();
+                        let hc = scene.haze_color;
+                        *r = *r * f + hc[0] * (1.0 - f);
+                        *g = *g * f + hc[1] * (1.0 - f);
+                        *b = *b * f + hc[2] * (1.0 - f);
                     }
                 }
-                (*or, *og, *ob) = (rad[0], rad[1], rad[2]);
             }
             match &mut sink {
                 Sink::Bytes(bytes, _) => {
@@ -524,6 +562,7 @@ impl Shade {
                 }
             }
         }
+        self.arrays = a;
         self.row = rowbuf;
         raster.stats.lit_exactly = exact;
     }
