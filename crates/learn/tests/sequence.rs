@@ -228,7 +228,9 @@ fn the_sequence_model_beats_its_own_network_on_a_held_out_walk() {
     let mut cfg = seq_config(&seq_data, &model, 20);
     cfg.window = 10;
     cfg.hidden = 32;
-    cfg.lr = 3e-3;
+    // the default rate, as `study sequence` trains: at 3e-3 the validation error jumped from
+    // epoch to epoch (0.2 to 0.5 m) and the outcome hung on the last bits of the CNN's features
+    cfg.lr = 1e-3;
     run_seq(&cfg);
     let loc = SeqLocalizer::load(&model).unwrap();
     let (views, poses) = split_views(&loc, &data, SplitName::Test);
@@ -239,9 +241,10 @@ fn the_sequence_model_beats_its_own_network_on_a_held_out_walk() {
     let (m1, ms) = (median(&single), median(&sequence));
     let (j1, js) = (jitter(&single), jitter(&sequence));
     eprintln!("single {m1:.3} m (jitter {j1:.3}), sequence {ms:.3} m (jitter {js:.3})");
-    // measured: 0.240 m against 0.381 m, jitter 0.165 against 0.189 (stop 45's machine); 0.223
-    // against 0.272 m, jitter 0.090 against 0.234 on an AMD EPYC (2026-12-05): the networks'
-    // numerics differ between CPUs, so the bound leaves room for that. The regression it guards
+    // measured (sequence against single): 0.193 m against 0.271 m, jitter 0.085 against 0.176
+    // on an AMD EPYC (2026-12-07). The networks' numerics differ between CPUs and kernel
+    // versions, so the recipe was checked over five seed pairs on two kernel versions: the
+    // sequence model at 0.28x to 0.84x its network's median error. The regression it guards
     // against put the sequence model at 1.6x its network.
     assert!(
         ms <= 0.9 * m1,
