@@ -6,7 +6,13 @@
 //! - Inference: the network in evaluation mode on one image, BatchNorm folded into the
 //!   convolutions as `Localizer` does, reading the output back.
 //!
-//! Both run `warmup` untimed repetitions first and return every timed one in milliseconds.
+//! - A localized frame ([`localize_ms`]): what `localize` runs per frame, as the trained
+//!   models' head has it (a 1024-wide hidden layer, the per-image scale, dropout 0.2): the
+//!   view's test-time copies, the backbone once per view in one batch, the plain head per view
+//!   and the MC passes on the frame's own features, outputs read back. PyTorch has no peer of
+//!   it; it is compared with one plain pass of the same network.
+//!
+//! All run `warmup` untimed repetitions first and return every timed one in milliseconds.
 
 use std::time::Instant;
 
@@ -14,8 +20,11 @@ use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::{Distribution, Tensor};
 use geom::Mount;
 
+use imgproc::view::View;
+
 use crate::Result;
 use crate::head::{PoseCoding, Task};
+use crate::infer::{Passes, predict_outputs};
 use crate::loss::pose_loss;
 use crate::net::{Arch, HeadConfig, NetConfig};
 
@@ -79,6 +88,58 @@ pub fn infer_ms(arch: Arch, input: [usize; 3], warmup: usize, runs: usize) -> Re
     for i in 0..warmup + runs {
         let t = Instant::now();
         let _ = net.forward(one.clone()).into_data();
+        if i >= warmup {
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+    }
+    Ok(times)
+}
+
+/// Milliseconds per frame of `arch` on a `[C, H, W]` view as `localize` runs it: with test-time
+/// augmentation (`tta`) and `mc` MC-dropout passes (fewer than 2: none); see the module docs.
+pub fn localize_ms(
+    arch: Arch,
+    input: [usize; 3],
+    tta: bool,
+    mc: usize,
+    warmup: usize,
+    runs: usize,
+) -> Result<Vec<f64>> {
+    let device = crate::device::inference();
+    let [c, h, w] = input;
+    let defaults = crate::TrainConfig::new("", "");
+    let config = NetConfig {
+        head: HeadConfig {
+            hidden: defaults.hidden,
+            aleatoric: defaults.aleatoric,
+        },
+        ..net_config(arch, c)
+    };
+    let net = config.init(&device, 0)?.fold_batchnorm();
+    // a fixed pseudo-random view: the time does not depend on the values
+    let data = (0..c * h * w)
+        .map(|i| ((i as u32).wrapping_mul(2_654_435_761) >> 24) as f32 / 255.0)
+        .collect();
+    let view = View {
+        channels: c as u32,
+        width: w as u32,
+        height: h as u32,
+        data,
+        norm: None,
+    };
+    let passes = Passes::new(tta, mc, defaults.dropout, crate::DEFAULT_MC_SEED);
+    let mut times = Vec::with_capacity(runs);
+    for i in 0..warmup + runs {
+        let t = Instant::now();
+        let out = predict_outputs(
+            &net,
+            std::slice::from_ref(&view),
+            input,
+            "bench",
+            passes,
+            &device,
+        )?;
+        std::hint::black_box(out);
         if i >= warmup {
             times.push(t.elapsed().as_secs_f64() * 1e3);
         }

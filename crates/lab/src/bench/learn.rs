@@ -1,7 +1,9 @@
 //! `indoorloc bench train` and `indoorloc bench infer`: a network's training step (batch 32, at
 //! 1x120x160 and 3x256x256) and single-image inference (1x120x160 and 3x256x256, one thread
 //! and all threads), beside PyTorch running `torch_apr.py --arch ARCH` with the same settings
-//! in the same run (the small network by default; `--arch` picks another).
+//! in the same run (the small network by default; `--arch` picks another). `bench infer` also
+//! times a frame as `localize` runs it (`learn::bench::localize_ms`): one plain pass, and
+//! with test-time augmentation and 16 MC passes, as a multiple of the plain pass.
 //!
 //! On a GPU (`--device wgpu`) each input is measured once, as CPU threads do not count there,
 //! and the CPU peer is not run: PyTorch on the same GPU is `scripts/gpu/torch_gpu.py`, which
@@ -9,7 +11,7 @@
 
 use super::peer::{Peer, VsPeer};
 use crate::{Context, Result};
-use learn::bench::{infer_ms, train_step_ms};
+use learn::bench::{infer_ms, localize_ms, train_step_ms};
 use learn::{Arch, ComputeDevice};
 use serde::Serialize;
 use std::process::Command;
@@ -20,11 +22,13 @@ const INPUTS: [[usize; 3]; 2] = [[1, 120, 160], [3, 256, 256]];
 const BATCH: usize = 32;
 /// Untimed repetitions first.
 const WARMUP: usize = 3;
+/// MC-dropout passes per frame in the `localize` rows, as `localize` runs by default.
+const LOCALIZE_MC: usize = 16;
 
 /// One measured row.
 #[derive(Debug, Serialize)]
 pub struct LearnFigures {
-    /// `train` (ms per step of a batch) or `infer` (ms per image).
+    /// `train` (ms per step of a batch), `infer` (ms per image) or `localize` (ms per frame).
     what: &'static str,
     arch: String,
     /// `cpu`, or the GPU's name (`wgpu: NVIDIA H100 80GB HBM3`).
@@ -36,6 +40,15 @@ pub struct LearnFigures {
     threads: usize,
     /// indoorloc, median milliseconds.
     ms: f64,
+    /// `localize` rows: MC-dropout passes per frame (0: the plain pass alone).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mc: Option<usize>,
+    /// `localize` rows: whether the frame's test-time copies ran too.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tta: Option<bool>,
+    /// `localize` rows: `ms` over the plain pass's in the same run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    x_plain: Option<f64>,
     /// PyTorch's median milliseconds in the same run beside ours.
     #[serde(flatten)]
     vs: VsPeer,
@@ -155,6 +168,9 @@ pub fn bench(
                     batch,
                     threads,
                     ms,
+                    mc: None,
+                    tta: None,
+                    x_plain: None,
                     vs: VsPeer::new("PyTorch torch_apr.py", ms, peer, peer_note.clone()),
                 });
             };
@@ -169,10 +185,48 @@ pub fn bench(
                     infer_ms(arch, input, WARMUP, runs)
                 })??);
                 row("infer", 1, ms, peer_ms("infer_ms_per_image"));
+                rows.extend(localize_rows(arch, input, threads, runs, &device)?);
             }
         }
     }
     Ok(rows)
+}
+
+/// The `localize` rows of one input and thread count: the plain pass, then TTA and
+/// [`LOCALIZE_MC`] MC passes as a multiple of it.
+fn localize_rows(
+    arch: Arch,
+    input: [usize; 3],
+    threads: usize,
+    runs: usize,
+    device: &str,
+) -> Result<[LearnFigures; 2]> {
+    let time = |tta, mc| -> Result<f64> {
+        Ok(median(on_threads(threads, || {
+            localize_ms(arch, input, tta, mc, WARMUP, runs)
+        })??))
+    };
+    let plain = time(false, 0)?;
+    let full = time(true, LOCALIZE_MC)?;
+    let row = |ms: f64, tta, mc| LearnFigures {
+        what: "localize",
+        arch: arch.to_string(),
+        device: device.to_string(),
+        input,
+        batch: 1,
+        threads,
+        ms,
+        mc: Some(mc),
+        tta: Some(tta),
+        x_plain: Some(ms / plain),
+        vs: VsPeer::new(
+            "PyTorch torch_apr.py",
+            ms,
+            None,
+            Some("torch_apr.py has no MC or TTA passes".into()),
+        ),
+    };
+    Ok([row(plain, false, 0), row(full, true, LOCALIZE_MC)])
 }
 
 /// The rows as a table for people.
@@ -182,24 +236,39 @@ pub fn table(rows: &[LearnFigures]) -> String {
     }
     let mut text = format!("{} on {}\n", rows[0].arch, rows[0].device);
     text.push_str(&format!(
-        "{:<7}{:>12}{:>7}{:>9}{:>11}{:>11}{:>9}\n",
+        "{:<14}{:>12}{:>7}{:>9}{:>11}{:>11}{:>9}\n",
         "learn", "input", "batch", "threads", "ms", "PyTorch", "ratio"
     ));
     for r in rows {
         let [c, h, w] = r.input;
+        let what = match (r.mc, r.tta) {
+            (Some(mc), Some(true)) if mc > 0 => format!("loc+{mc}mc+tta"),
+            (Some(_), _) => "loc plain".into(),
+            _ => r.what.into(),
+        };
+        let ratio = match r.x_plain {
+            Some(x) => format!("{x:.2}x pl"),
+            None => {
+                r.vs.ratio_vs_peer
+                    .map_or("–".into(), |x| format!("{x:.2}x"))
+            }
+        };
         text.push_str(&format!(
-            "{:<7}{:>12}{:>7}{:>9}{:>11.2}{:>11}{:>9}\n",
-            r.what,
+            "{:<14}{:>12}{:>7}{:>9}{:>11.2}{:>11}{:>9}\n",
+            what,
             format!("{c}x{h}x{w}"),
             r.batch,
             r.threads,
             r.ms,
             r.vs.peer_ms.map_or("–".into(), |p| format!("{p:.2}")),
-            r.vs.ratio_vs_peer
-                .map_or("–".into(), |x| format!("{x:.2}x")),
+            ratio,
         ));
     }
-    if let Some(note) = rows.iter().find_map(|r| r.vs.peer_note.as_ref()) {
+    if let Some(note) = rows
+        .iter()
+        .filter(|r| r.x_plain.is_none())
+        .find_map(|r| r.vs.peer_note.as_ref())
+    {
         text.push_str(&format!("PyTorch not measured: {note}\n"));
     }
     text
