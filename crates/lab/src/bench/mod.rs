@@ -38,7 +38,8 @@ pub enum Stage {
     /// 3x256x256) on the process's device (`--device`), against PyTorch (torch_apr.py).
     Train,
     /// ms per single-image inference of a network (`--arch`), 1 thread and all (once on a
-    /// GPU), against PyTorch.
+    /// GPU), against PyTorch; and ms per frame as `localize` runs it, plain and with TTA + 16
+    /// MC passes.
     Infer,
     /// Scene-cut detection frames/s on a 320x240 video, against PySceneDetect and decoding
     /// alone; hard-cut F1 on the shared clips beside PySceneDetect's.
