@@ -181,9 +181,17 @@ fn bench_infer_reports_each_input_and_thread_count() -> TestResult {
         .output()?;
     let v = json_of(&out)?;
     let rows = v["learn"].as_array().ok_or("no learn rows")?;
-    assert!(rows.len() >= 2, "{rows:?}");
+    let of = |what: &str| {
+        rows.iter()
+            .filter(|r| r["what"] == what)
+            .collect::<Vec<_>>()
+    };
+    let (infer, localize) = (of("infer"), of("localize"));
+    assert!(infer.len() >= 2, "{rows:?}");
+    // each input and thread count: a plain frame, then TTA + 16 MC passes as a multiple of it
+    assert_eq!(localize.len(), 2 * infer.len(), "{rows:?}");
+    assert_eq!(infer.len() + localize.len(), rows.len(), "{rows:?}");
     for r in rows {
-        assert_eq!(r["what"], "infer");
         let ms = r["ms"].as_f64().ok_or("ms")?;
         assert!(ms.is_finite() && ms > 0.0, "{r}");
         // Without the peers' venv (or scripts) the ratio is absent and the note says why.
@@ -192,6 +200,21 @@ fn bench_infer_reports_each_input_and_thread_count() -> TestResult {
             r["peer_note"].as_str().is_some_and(|n| !n.is_empty()),
             "{r}"
         );
+    }
+    for pair in localize.chunks(2) {
+        let (plain, full) = (pair[0], pair[1]);
+        assert_eq!(
+            (plain["mc"].as_u64(), plain["tta"].as_bool()),
+            (Some(0), Some(false))
+        );
+        assert_eq!(
+            (full["mc"].as_u64(), full["tta"].as_bool()),
+            (Some(16), Some(true))
+        );
+        assert_eq!(plain["x_plain"].as_f64(), Some(1.0), "{plain}");
+        let x = full["x_plain"].as_f64().ok_or("x_plain")?;
+        let ratio = full["ms"].as_f64().ok_or("ms")? / plain["ms"].as_f64().ok_or("ms")?;
+        assert!((x - ratio).abs() < 1e-9, "{full}");
     }
     Ok(())
 }

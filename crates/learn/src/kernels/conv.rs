@@ -11,8 +11,9 @@
 //! One image at inference is cut further ([`Tiles`]): bands of output rows whose patches fit in
 //! a core's L2, or slices of output channels where a map has too few rows for every thread,
 //! with the bias and ReLU of a folded layer applied as each band is written. Before, one image
-//! ran on one thread: 3x256x256 took 8.6 ms on two threads against 9.0 on one; now 4.6 against
-//! 7.1 (ARCHITECTURE.md, "Departures", has the commands and PyTorch's figures beside them).
+//! ran on one thread: 3x256x256 took 8.6 ms on two threads against 9.0 on one; now 4.8 against
+//! 6.8 with the AVX2 microkernels, 3.3-3.7 against 4.5 with AVX-512 (ARCHITECTURE.md,
+//! "Departures", has the commands and PyTorch's figures beside them).
 
 use std::cell::Cell;
 use std::ops::Range;
