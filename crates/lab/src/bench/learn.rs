@@ -264,6 +264,12 @@ pub fn table(rows: &[LearnFigures]) -> String {
             ratio,
         ));
     }
+    if rows.iter().any(|r| r.x_plain.is_some()) {
+        text.push_str(&format!(
+            "loc: a frame as `localize` runs it; \"x pl\": times its plain pass ({LOCALIZE_MC} MC \
+             passes reuse the frame's features, TTA runs the backbone on 5 views)\n"
+        ));
+    }
     if let Some(note) = rows
         .iter()
         .filter(|r| r.x_plain.is_none())
