@@ -84,10 +84,19 @@ pub fn infer_ms(arch: Arch, input: [usize; 3], warmup: usize, runs: usize) -> Re
     // As `Localizer` runs it: BatchNorm folded into the convolutions.
     let net = net_config(arch, c).init(&device, 0)?.fold_batchnorm();
     let one = Tensor::<4>::random([1, c, h, w], Distribution::Normal(0.0, 1.0), &device);
+    timed(warmup, runs, || {
+        std::hint::black_box(net.forward(one.clone()).into_data());
+        Ok(())
+    })
+}
+
+/// Milliseconds of each of `runs` calls of `run` after `warmup` untimed ones. (A training step
+/// keeps its own loop: it consumes the network and gets the next one back.)
+fn timed(warmup: usize, runs: usize, mut run: impl FnMut() -> Result<()>) -> Result<Vec<f64>> {
     let mut times = Vec::with_capacity(runs);
     for i in 0..warmup + runs {
         let t = Instant::now();
-        let _ = net.forward(one.clone()).into_data();
+        run()?;
         if i >= warmup {
             times.push(t.elapsed().as_secs_f64() * 1e3);
         }
@@ -128,21 +137,11 @@ pub fn localize_ms(
         norm: None,
     };
     let passes = Passes::new(tta, mc, defaults.dropout, crate::DEFAULT_MC_SEED);
-    let mut times = Vec::with_capacity(runs);
-    for i in 0..warmup + runs {
-        let t = Instant::now();
-        let out = predict_outputs(
-            &net,
-            std::slice::from_ref(&view),
-            input,
-            "bench",
-            passes,
-            &device,
-        )?;
-        std::hint::black_box(out);
-        if i >= warmup {
-            times.push(t.elapsed().as_secs_f64() * 1e3);
-        }
-    }
-    Ok(times)
+    let views = std::slice::from_ref(&view);
+    timed(warmup, runs, || {
+        std::hint::black_box(predict_outputs(
+            &net, views, input, "bench", passes, &device,
+        )?);
+        Ok(())
+    })
 }
