@@ -206,8 +206,8 @@ fn study_real_reports_every_row_on_kitchen_frames() -> TestResult {
 }
 
 /// `map build` then `localize --map` (no network: the map's own retrieval starts each frame) on
-/// held-out kitchen frames between mapped ones: every frame refined, centimetres by `eval`; a
-/// damaged map exits 2 naming the file.
+/// held-out kitchen frames between mapped ones: every frame refined, centimetres by `eval`, with
+/// pooled and with grouped candidates (`--map-groups`); a damaged map exits 2 naming the file.
 #[test]
 fn map_build_and_localize_with_the_map_refine_held_out_kitchen_frames() -> TestResult {
     let kitchen = shared_data("7scenes_redkitchen_seq01");
@@ -243,6 +243,33 @@ fn map_build_and_localize_with_the_map_refine_held_out_kitchen_frames() -> TestR
         e["median_rot_deg"].as_f64().ok_or("median")?,
     );
     assert!(p < 0.03 && r < 1.5, "refined {p:.3} m / {r:.2}°");
+    // Retrieved keyframes solved as groups of their own: the same centimetres.
+    let grouped = dir.path().join("grouped.jsonl");
+    let frames = localize(
+        &[
+            "--map",
+            m,
+            "--map-groups",
+            "5",
+            d,
+            "--split",
+            "test",
+            "--blocks",
+            "20:4:1",
+        ],
+        &grouped,
+    )?;
+    assert_eq!(frames.len(), 20);
+    for line in std::fs::read_to_string(&grouped)?.lines() {
+        let v: serde_json::Value = serde_json::from_str(line)?;
+        assert_eq!(v["refined"], true, "{v}");
+    }
+    let grouped_s = grouped.to_str().ok_or("path")?;
+    let e = json_of(&indoorloc(&[
+        "eval", "--gt", d, "--est", grouped_s, "--json",
+    ])?)?;
+    let p = e["median_pos_m"].as_f64().ok_or("median")?;
+    assert!(p < 0.03, "grouped: refined {p:.3} m");
 
     // A photo of another camera's shape: refused, naming the map.
     let other = dir.path().join("other");

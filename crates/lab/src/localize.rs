@@ -70,6 +70,12 @@ pub struct LocalizeConfig {
     /// …but never closer than this, metres.
     #[arg(long, default_value_t = map::RefineConfig::default().gate_floor_m, value_name = "M")]
     gate_floor: f64,
+    /// With --map: match the K keyframes retrieval finds most similar each with its two
+    /// nearest, solve each group alone and keep the best, instead of pooling the three most
+    /// similar (for a map whose images look unlike the frames, e.g. renders of a scan against
+    /// photos: twice the matching time).
+    #[arg(long, value_name = "K")]
+    map_groups: Option<usize>,
     /// No network: answer each frame with the pose of the most similar frame of this posed
     /// dataset outside its test part (training and validation under --blocks or its own split; a thumbnail
     /// descriptor, see `map::retrieval`). `sigma_pos_m` / `sigma_rot_deg` are the spread of the
@@ -335,7 +341,9 @@ pub fn run(args: &LocalizeConfig, sink: &mut dyn crate::Output) -> Result<()> {
         let refine = map::RefineConfig {
             gate_sigmas: args.gate_sigmas,
             gate_floor_m: args.gate_floor,
-            ..map::RefineConfig::default()
+            ..args
+                .map_groups
+                .map_or_else(map::RefineConfig::default, map::RefineConfig::grouped)
         };
         let mut map = MapEstimator::new(map::file::load(path)?, refine).named(path);
         if estimators.is_empty() {

@@ -34,6 +34,12 @@ pub struct RefineConfig {
     /// Keyframes nearest the first PnP pose matched in a second pass, whose correspondences
     /// join the first pass's for a second PnP (0: one pass).
     pub near_refined: usize,
+    /// Keyframes nearest each retrieved one that join it in a group of its own, each group
+    /// solved alone and the one with the most inliers kept (the keyframes near the coarse pose
+    /// are one more group); 0 pools every candidate into one PnP. Pooling is right when
+    /// retrieval is right; where it often is not (photos against a map of renders), the wrong
+    /// keyframes' chance matches outnumber the right one's inliers, or agree on a wrong pose.
+    pub group_neighbours: usize,
     /// Feature matching.
     pub matching: MatchConfig,
     /// PnP + RANSAC.
@@ -64,6 +70,7 @@ impl Default for RefineConfig {
             retrieved: 3,
             near_coarse: 2,
             near_refined: 3,
+            group_neighbours: 0,
             matching: MatchConfig::default(),
             pnp: PnpConfig::default(),
             min_inliers: 15,
@@ -75,6 +82,21 @@ impl Default for RefineConfig {
 }
 
 impl RefineConfig {
+    /// The settings for a map whose images look unlike the queries (renders of a scan against
+    /// photos of the room): the `retrieved` most similar keyframes, each with its two nearest,
+    /// solved as groups of their own. On the kitchen's 200 held-out photos against a map of
+    /// 800 renders of its scan, 10 such groups refine 68 % of the photos against 53 % for three
+    /// pooled keyframes, with the same centimetres on those refined (`study synth-to-real`);
+    /// on a map of the photos themselves both refine every photo (2.2 against 2.3 cm median),
+    /// the groups at twice the matching time.
+    pub fn grouped(retrieved: usize) -> Self {
+        RefineConfig {
+            retrieved,
+            group_neighbours: 2,
+            ..RefineConfig::default()
+        }
+    }
+
     /// How far from a coarse pose a refined one may lie, metres.
     pub fn gate_radius(&self, coarse: &Coarse) -> f64 {
         (self.gate_sigmas * coarse.sigma_pos_m).max(self.gate_floor_m)
@@ -258,12 +280,16 @@ impl KeyframeMap {
             features: &query,
             pixels: &pixels,
         };
-        let mut corr = Vec::new();
-        for &k in &candidates {
-            self.match_keyframe(&query, k, cfg, &mut corr);
-        }
-        timings.matching_ms = ms_since(t1);
-        if corr.len() < cfg.min_inliers.max(4) {
+        let groups = self.candidate_groups(&hits, coarse, &candidates, cfg);
+        let GroupAnswer {
+            solved,
+            mut corr,
+            winner,
+            matched,
+        } = self.solve_groups(&query, &groups, &camera, coarse, cfg, &mut timings);
+        timings.matching_ms = ms_since(t1) - timings.pnp_ms;
+        candidates = matched.iter().map(|(k, _)| *k).collect();
+        let Some(mut solved) = solved else {
             return Ok(fallback(
                 Fallback::TooFewMatches {
                     matches: corr.len(),
@@ -273,22 +299,24 @@ impl KeyframeMap {
                 candidates,
                 timings,
             ));
-        }
-        let t2 = Instant::now();
-        let mut solved = solve_near(&camera, &corr, coarse, cfg);
-        timings.pnp_ms = ms_since(t2);
+        };
         if let Solved::Pose(first) = &solved {
             let more: Vec<usize> = self
                 .nearest_keyframes(&first.pose.to_pose(), cfg.near_refined)
                 .into_iter()
-                .filter(|k| !candidates.contains(k))
+                .filter(|k| !winner.contains(k))
                 .collect();
             if !more.is_empty() {
                 let t3 = Instant::now();
                 for &k in &more {
-                    self.match_keyframe(&query, k, cfg, &mut corr);
+                    match matched.iter().find(|(m, _)| *m == k) {
+                        Some((_, c)) => corr.extend_from_slice(c),
+                        None => self.match_keyframe(&query, k, cfg, &mut corr),
+                    }
+                    if !candidates.contains(&k) {
+                        candidates.push(k);
+                    }
                 }
-                candidates.extend(more);
                 timings.matching_ms += ms_since(t3);
                 let t4 = Instant::now();
                 let first_inliers = first.inliers.len();
@@ -368,6 +396,84 @@ impl KeyframeMap {
         }
     }
 
+    /// Matches the query to each group's keyframes (each keyframe once) and solves each group
+    /// with enough matches; the best answer ([`Solved::beats`]) wins. Adds PnP's time to
+    /// `timings.pnp_ms`.
+    fn solve_groups(
+        &self,
+        query: &Query,
+        groups: &[Vec<usize>],
+        camera: &geom::Camera,
+        coarse: Option<&Coarse>,
+        cfg: &RefineConfig,
+        timings: &mut Timings,
+    ) -> GroupAnswer {
+        let mut best = GroupAnswer::default();
+        for group in groups {
+            let mut corr = Vec::new();
+            for &k in group {
+                if let Some((_, c)) = best.matched.iter().find(|(m, _)| *m == k) {
+                    corr.extend_from_slice(c);
+                } else {
+                    let mut c = Vec::new();
+                    self.match_keyframe(query, k, cfg, &mut c);
+                    corr.extend_from_slice(&c);
+                    best.matched.push((k, c));
+                }
+            }
+            if corr.len() < cfg.min_inliers.max(4) {
+                if best.solved.is_none() && best.corr.len() < corr.len() {
+                    best.corr = corr;
+                }
+                continue;
+            }
+            let t = Instant::now();
+            let this = solve_near(camera, &corr, coarse, cfg);
+            timings.pnp_ms += ms_since(t);
+            if best.solved.as_ref().is_none_or(|b| this.beats(b)) {
+                best.solved = Some(this);
+                best.corr = corr;
+                best.winner.clone_from(group);
+            }
+        }
+        best
+    }
+
+    /// The keyframes matched together in one PnP each: every candidate in one group, or with
+    /// [`RefineConfig::group_neighbours`] each retrieved keyframe with its nearest keyframes,
+    /// and those nearest the coarse pose.
+    fn candidate_groups(
+        &self,
+        hits: &[retrieval::Hit],
+        coarse: Option<&Coarse>,
+        candidates: &[usize],
+        cfg: &RefineConfig,
+    ) -> Vec<Vec<usize>> {
+        if cfg.group_neighbours == 0 {
+            return vec![candidates.to_vec()];
+        }
+        let mut groups: Vec<Vec<usize>> = hits
+            .iter()
+            .map(|h| {
+                let pose = &self.retrieval.keyframes[h.index].pose;
+                let mut group = vec![h.index];
+                group.extend(
+                    self.nearest_keyframes(pose, cfg.group_neighbours + 1)
+                        .into_iter()
+                        .filter(|&k| k != h.index),
+                );
+                group
+            })
+            .collect();
+        if let Some(c) = coarse {
+            let near = self.nearest_keyframes(&c.pose, cfg.near_coarse);
+            if !near.is_empty() {
+                groups.push(near);
+            }
+        }
+        groups
+    }
+
     /// The `k` keyframes nearest a pose that face within 45° of it.
     fn nearest_keyframes(&self, pose: &Pose, k: usize) -> Vec<usize> {
         let mut near: Vec<(f64, usize)> = self
@@ -389,6 +495,19 @@ struct Query<'a> {
     pixels: &'a [Vector2<f64>],
 }
 
+/// The best of [`KeyframeMap::solve_groups`]'s groups.
+#[derive(Default)]
+struct GroupAnswer {
+    /// PnP's answer for the winning group (`None`: no group had enough matches).
+    solved: Option<Solved>,
+    /// The winning group's correspondences (without a winner, the largest group's).
+    corr: Vec<Correspondence>,
+    /// The winning group's keyframes.
+    winner: Vec<usize>,
+    /// Every keyframe matched, in order, with its correspondences.
+    matched: Vec<(usize, Vec<Correspondence>)>,
+}
+
 /// What PnP made of a query's matches.
 enum Solved {
     /// A pose with enough inliers, within the coarse pose's gate when there is one.
@@ -404,6 +523,25 @@ enum Solved {
         allowed_m: f64,
         inliers: usize,
     },
+}
+
+impl Solved {
+    /// Whether this answer is better than `other`: a pose over no pose, then more inliers.
+    fn beats(&self, other: &Solved) -> bool {
+        match (self, other) {
+            (Solved::Pose(a), Solved::Pose(b)) => a.inliers.len() > b.inliers.len(),
+            (Solved::Pose(_), _) => true,
+            (_, Solved::Pose(_)) => false,
+            (a, b) => a.inliers() > b.inliers(),
+        }
+    }
+
+    fn inliers(&self) -> usize {
+        match self {
+            Solved::Pose(s) => s.inliers.len(),
+            Solved::Weak { inliers } | Solved::Contradicts { inliers, .. } => *inliers,
+        }
+    }
 }
 
 /// A pose near the coarse one is taken over a better-fitting one farther away only when it

@@ -152,3 +152,32 @@ fn a_map_survives_the_disk_and_damaged_files_are_refused() {
         assert!(e.contains("bad.map") && e.contains(says), "{what}: {e}");
     }
 }
+
+#[test]
+fn grouped_candidates_refine_the_gap_and_still_refuse_strangers() {
+    let (ds, km) = kitchen_map();
+    let cfg = RefineConfig::grouped(10);
+    for i in [42, 50, 58] {
+        let truth = ds.images[i].frame.pose;
+        let r = km.refine(&decode(&ds.images[i].image), None, &cfg).unwrap();
+        assert!(r.refined, "frame {i}: {:?}", r.fallback);
+        // Every group's keyframes were matched: ten retrieved and their neighbours.
+        assert!(r.candidates.len() > 10, "{} candidates", r.candidates.len());
+        let (p, d) = (
+            position_error(&truth, &r.pose),
+            rotation_error_deg(&truth, &r.pose),
+        );
+        assert!(p < 0.03 && d < 1.0, "frame {i}: {p:.3} m, {d:.2}°");
+    }
+    // Ten groups are ten chances for chance matches to agree: they still must not.
+    let dark = DynamicImage::ImageRgb8(RgbImage::from_fn(640, 480, |x, y| {
+        Rgb([((x * 7 + y * 13) % 3) as u8; 3])
+    }));
+    let stairs = decode(&shared(
+        "7scenes_stairs_sample/7scenes_layout/seq-04/frame-000000.color.png",
+    ));
+    for (what, img) in [("dark", dark), ("stairs", stairs)] {
+        let r = km.refine(&img, None, &cfg).unwrap();
+        assert!(!r.refined, "{what}: refined with {} inliers", r.inliers);
+    }
+}

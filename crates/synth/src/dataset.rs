@@ -54,7 +54,7 @@ pub enum Sampler {
     WalkWithCuts,
     /// Uniform random poses in free space.
     Random,
-    /// Random poses near given camera poses ([`trajectory::near_poses`]): for a scan, whose
+    /// Poses near given camera poses, spread evenly along them in order ([`trajectory::near_poses`]): for a scan, whose
     /// free space is known only along its own camera's path. The poses are cut into
     /// `sequences` runs of consecutive poses and sequence `k` draws near run `k` alone, so a
     /// split by sequence is a split along the path. Needs no walk graph.

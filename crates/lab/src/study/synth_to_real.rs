@@ -50,6 +50,10 @@ const NEAR_RADIUS_M: f64 = 0.3;
 const NEAR_ANGLE_DEG: f64 = 10.0;
 /// Sequences of the renders (whole sequences are held out for validation).
 const SEQUENCES: usize = 10;
+/// Keyframes retrieved for each photo, each matched with its neighbours as a group of its own
+/// ([`RefineConfig::grouped`]): thumbnails of renders find the right keyframes of a photo less
+/// often than those of photos.
+const MAP_GROUPS: usize = 10;
 /// Test frames shown beside their renders in the report.
 const SHOWN: usize = 6;
 
@@ -327,7 +331,7 @@ pub fn run(args: &SynthToRealConfig, sink: &mut dyn crate::Output) -> Result<()>
         let (km, seconds) = render_map(args, &glb, &path, &camera)?;
         map_render_s = seconds;
         render_s += seconds;
-        let cfg = RefineConfig::default();
+        let cfg = RefineConfig::grouped(MAP_GROUPS);
         for (method, with_network) in [("map", false), ("network+map", true)] {
             let poses = photos
                 .iter()

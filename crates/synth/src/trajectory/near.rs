@@ -1,9 +1,9 @@
-//! Random poses near a given camera path: the sampler for scans, whose free space is only
+//! Poses near a given camera path: the sampler for scans, whose free space is only
 //! known where their own camera went (a scan has no walk graph to speak of, and uniform poses
 //! over its box would mostly look at holes in the mesh).
 
 use super::random::TriangleGrid;
-use super::{PosedFrame, config, direction_of, rng, stream, uniform_index};
+use super::{PosedFrame, config, direction_of, rng, stream};
 use crate::error::Result;
 use crate::world::World;
 use geom::{Mount, Pose};
@@ -17,7 +17,10 @@ const CLEARANCE: f64 = 0.1;
 const TRIES: usize = 40;
 
 /// `n` camera poses near `around` (camera-to-world poses in the world frame, e.g. a scanned
-/// dataset's own path mapped into it): each picks one pose of `around` uniformly, moves its
+/// dataset's own path mapped into it): pose `i` starts from pose `i · len / n` of `around`, so
+/// the draws spread evenly along the path in its order (every pose used when `n ≥ len`, and
+/// with no spread the path itself; a uniform pick left a third of the poses unused when `n`
+/// equals their number, and the consecutive frames of a sequence far apart), moves its
 /// centre by a vector drawn uniformly from the ball of radius `radius_m`, and turns it by a
 /// rotation drawn uniformly from the ball of rotation vectors of angle `angle_deg` (about an
 /// axis through the camera centre). A centre within 0.1 m of a triangle is drawn again, up to
@@ -57,7 +60,7 @@ pub fn near_poses(
     let angle = angle_deg.to_radians();
     let mut out = Vec::with_capacity(n);
     for i in 0..n {
-        let base = &around[uniform_index(&mut r, around.len())];
+        let base = &around[i * around.len() / n];
         let mut best: Option<(f64, Vector3<f64>)> = None;
         for _ in 0..if radius_m > 0.0 { TRIES } else { 1 } {
             let c = base.translation + in_ball(&mut r, radius_m);
@@ -137,9 +140,11 @@ mod tests {
         assert!(far > 200, "{far}");
         assert_eq!(frames, near_poses(&world, &path, 400, 0.3, 10.0, 7)?);
         assert_ne!(frames, near_poses(&world, &path, 400, 0.3, 10.0, 8)?);
-        // No spread: the path itself.
+        // No spread: the path itself, in its order.
         let exact = near_poses(&world, &path[..1], 3, 0.0, 0.0, 1)?;
         assert!(exact.iter().all(|f| f.pose == path[0]));
+        let both = near_poses(&world, &path, 2, 0.0, 0.0, 1)?;
+        assert!(both.iter().zip(&path).all(|(f, p)| f.pose == *p));
         Ok(())
     }
 
