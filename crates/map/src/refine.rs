@@ -1,9 +1,11 @@
 //! A query image's pose from the map: candidates (the keyframes retrieval finds most similar,
 //! and those nearest the coarse pose when there is one), the query's features matched to
 //! theirs, each match a pixel of the query and a world point, and the pose from PnP + RANSAC
-//! ([`crate::pnp`]). The refinement is refused, and the coarse pose kept, when too few inliers
-//! agree or when the answer lies farther from the coarse pose than its sigma allows: a blank
-//! wall, a dark frame or a frame from elsewhere must not throw a tracker off.
+//! ([`crate::pnp`]) on all of them pooled, or on groups of candidates solved apart, the best
+//! kept ([`RefineConfig::grouped`], for maps whose images look unlike the queries). The
+//! refinement is refused, and the coarse pose kept, when too few inliers agree or when the
+//! answer lies farther from the coarse pose than its sigma allows: a blank wall, a dark frame
+//! or a frame from elsewhere must not throw a tracker off.
 
 use crate::keyframes::{KeyframeMap, gray_of};
 use crate::pnp::{self, Correspondence, PnpConfig, Prior};
