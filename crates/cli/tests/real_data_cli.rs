@@ -225,51 +225,29 @@ fn map_build_and_localize_with_the_map_refine_held_out_kitchen_frames() -> TestR
         "{built}"
     );
     assert!(built["points"].as_u64().ok_or("points")? > 5000, "{built}");
-    let est = dir.path().join("refined.jsonl");
-    let frames = localize(
-        &["--map", m, d, "--split", "test", "--blocks", "20:4:1"],
-        &est,
-    )?;
-    assert_eq!(frames.len(), 20);
-    for line in std::fs::read_to_string(&est)?.lines() {
-        let v: serde_json::Value = serde_json::from_str(line)?;
-        assert_eq!(v["refined"], true, "{v}");
-        assert_eq!(v["cov_pos_m2"].as_array().ok_or("cov")?.len(), 9);
+    // Pooled candidates, then retrieved keyframes solved as groups of their own: every frame
+    // refined to the same centimetres.
+    for (name, groups) in [("pooled", None), ("grouped", Some("5"))] {
+        let est = dir.path().join(format!("{name}.jsonl"));
+        let mut args = vec!["--map", m, d, "--split", "test", "--blocks", "20:4:1"];
+        if let Some(k) = groups {
+            args.extend(["--map-groups", k]);
+        }
+        let frames = localize(&args, &est)?;
+        assert_eq!(frames.len(), 20, "{name}");
+        for line in std::fs::read_to_string(&est)?.lines() {
+            let v: serde_json::Value = serde_json::from_str(line)?;
+            assert_eq!(v["refined"], true, "{name}: {v}");
+            assert_eq!(v["cov_pos_m2"].as_array().ok_or("cov")?.len(), 9);
+        }
+        let est_s = est.to_str().ok_or("path")?;
+        let e = json_of(&indoorloc(&["eval", "--gt", d, "--est", est_s, "--json"])?)?;
+        let (p, r) = (
+            e["median_pos_m"].as_f64().ok_or("median")?,
+            e["median_rot_deg"].as_f64().ok_or("median")?,
+        );
+        assert!(p < 0.03 && r < 1.5, "{name}: refined {p:.3} m / {r:.2}°");
     }
-    let est_s = est.to_str().ok_or("path")?;
-    let e = json_of(&indoorloc(&["eval", "--gt", d, "--est", est_s, "--json"])?)?;
-    let (p, r) = (
-        e["median_pos_m"].as_f64().ok_or("median")?,
-        e["median_rot_deg"].as_f64().ok_or("median")?,
-    );
-    assert!(p < 0.03 && r < 1.5, "refined {p:.3} m / {r:.2}°");
-    // Retrieved keyframes solved as groups of their own: the same centimetres.
-    let grouped = dir.path().join("grouped.jsonl");
-    let frames = localize(
-        &[
-            "--map",
-            m,
-            "--map-groups",
-            "5",
-            d,
-            "--split",
-            "test",
-            "--blocks",
-            "20:4:1",
-        ],
-        &grouped,
-    )?;
-    assert_eq!(frames.len(), 20);
-    for line in std::fs::read_to_string(&grouped)?.lines() {
-        let v: serde_json::Value = serde_json::from_str(line)?;
-        assert_eq!(v["refined"], true, "{v}");
-    }
-    let grouped_s = grouped.to_str().ok_or("path")?;
-    let e = json_of(&indoorloc(&[
-        "eval", "--gt", d, "--est", grouped_s, "--json",
-    ])?)?;
-    let p = e["median_pos_m"].as_f64().ok_or("median")?;
-    assert!(p < 0.03, "grouped: refined {p:.3} m");
 
     // A photo of another camera's shape: refused, naming the map.
     let other = dir.path().join("other");

@@ -219,11 +219,12 @@ impl KeyframeMap {
         let thumb = retrieval::descriptor(img)?;
         let hits = self.retrieval.query(&thumb, cfg.retrieved.max(1));
         let mut candidates: Vec<usize> = hits.iter().map(|h| h.index).collect();
-        if let Some(c) = coarse {
-            for k in self.nearest_keyframes(&c.pose, cfg.near_coarse) {
-                if !candidates.contains(&k) {
-                    candidates.push(k);
-                }
+        let near_coarse = coarse.map_or_else(Vec::new, |c| {
+            self.nearest_keyframes(&c.pose, cfg.near_coarse)
+        });
+        for &k in &near_coarse {
+            if !candidates.contains(&k) {
+                candidates.push(k);
             }
         }
         // What a fallback answers: the coarse pose, or retrieval's with its spread as its
@@ -282,7 +283,7 @@ impl KeyframeMap {
             features: &query,
             pixels: &pixels,
         };
-        let groups = self.candidate_groups(&hits, coarse, &candidates, cfg);
+        let groups = self.candidate_groups(&hits, &near_coarse, &candidates, cfg);
         let GroupAnswer {
             solved,
             mut corr,
@@ -443,11 +444,11 @@ impl KeyframeMap {
 
     /// The keyframes matched together in one PnP each: every candidate in one group, or with
     /// [`RefineConfig::group_neighbours`] each retrieved keyframe with its nearest keyframes,
-    /// and those nearest the coarse pose.
+    /// and those nearest the coarse pose (`near_coarse`).
     fn candidate_groups(
         &self,
         hits: &[retrieval::Hit],
-        coarse: Option<&Coarse>,
+        near_coarse: &[usize],
         candidates: &[usize],
         cfg: &RefineConfig,
     ) -> Vec<Vec<usize>> {
@@ -467,11 +468,8 @@ impl KeyframeMap {
                 group
             })
             .collect();
-        if let Some(c) = coarse {
-            let near = self.nearest_keyframes(&c.pose, cfg.near_coarse);
-            if !near.is_empty() {
-                groups.push(near);
-            }
+        if !near_coarse.is_empty() {
+            groups.push(near_coarse.to_vec());
         }
         groups
     }
