@@ -63,6 +63,19 @@ impl KeyframeMap {
     pub fn points(&self) -> usize {
         self.features.iter().map(MappedFeatures::len).sum()
     }
+
+    /// Adds `other`'s keyframes after this map's (e.g. renders near a path beside renders at
+    /// it). Errors when the two were built with another camera or other feature settings.
+    pub fn extend(&mut self, other: KeyframeMap) -> Result<()> {
+        if other.camera != self.camera || other.extract != self.extract {
+            return Err(MapError::Input(
+                "maps of another camera or other feature settings cannot be joined".into(),
+            ));
+        }
+        self.retrieval.extend(other.retrieval)?;
+        self.features.extend(other.features);
+        Ok(())
+    }
 }
 
 /// How a map is built.

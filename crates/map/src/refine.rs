@@ -12,7 +12,7 @@ use crate::pnp::{self, Correspondence, PnpConfig, Prior};
 use crate::{MapError, Result, retrieval};
 use features::MatchConfig;
 use geom::Pose;
-use image::DynamicImage;
+use image::{DynamicImage, GrayImage};
 use nalgebra::{Matrix3, Point2, Vector2, Vector3};
 use std::time::Instant;
 
@@ -188,7 +188,8 @@ pub struct Refinement {
 
 impl KeyframeMap {
     /// Refines the pose of a query image (see the module docs). The query may be of another
-    /// resolution than the mapped images (the same camera, scaled).
+    /// resolution than the mapped images (the same camera, scaled); a larger one is reduced to
+    /// theirs (by area) before its features are found.
     pub fn refine(
         &self,
         img: &DynamicImage,
@@ -211,11 +212,16 @@ impl KeyframeMap {
             )));
         }
         let t0 = Instant::now();
-        let camera = if (img.width(), img.height()) == (self.camera.width, self.camera.height) {
-            self.camera
-        } else {
-            self.camera.resized(img.width(), img.height())
-        };
+        // A query larger than the mapped images is matched at their size: ORB's corners pair
+        // best between images of one scale, and a map of renders (`study synth-to-real`) is
+        // best rendered smaller than the photos (its texture is coarser than their pixels).
+        let larger = img.width() > self.camera.width;
+        let camera =
+            if larger || (img.width(), img.height()) == (self.camera.width, self.camera.height) {
+                self.camera
+            } else {
+                self.camera.resized(img.width(), img.height())
+            };
         let thumb = retrieval::descriptor(img)?;
         let hits = self.retrieval.query(&thumb, cfg.retrieved.max(1));
         let mut candidates: Vec<usize> = hits.iter().map(|h| h.index).collect();
@@ -243,7 +249,13 @@ impl KeyframeMap {
                 )
             }
         };
-        let gray = gray_of(img)?;
+        let mut gray = gray_of(img)?;
+        if larger {
+            let mut small = GrayImage::new(camera.width, camera.height);
+            imgproc::view::resize_gray(&gray, &mut small)
+                .map_err(|e| MapError::Input(format!("query reduced to the map's size: {e}")))?;
+            gray = small;
+        }
         let query = features::extract(&gray, &self.extract)
             .map_err(|e| MapError::Input(format!("query features: {e}")))?;
         let mut timings = Timings {

@@ -141,6 +141,21 @@ impl RetrievalIndex {
         })
     }
 
+    /// Adds `other`'s keyframes after these; their descriptors must be of the same width.
+    pub fn extend(&mut self, other: RetrievalIndex) -> Result<()> {
+        let width = |ix: &RetrievalIndex| ix.descriptors.len() / ix.keyframes.len().max(1);
+        if !self.is_empty() && !other.is_empty() && width(self) != width(&other) {
+            return Err(MapError::Input(format!(
+                "descriptors of {} and {} values cannot share an index",
+                width(self),
+                width(&other)
+            )));
+        }
+        self.keyframes.extend(other.keyframes);
+        self.descriptors.extend(other.descriptors);
+        Ok(())
+    }
+
     /// The descriptor of keyframe `i`.
     pub fn descriptor(&self, i: usize) -> &[f32] {
         let w = self.descriptors.len() / self.keyframes.len().max(1);

@@ -181,3 +181,62 @@ fn grouped_candidates_refine_the_gap_and_still_refuse_strangers() {
         assert!(!r.refined, "{what}: refined with {} inliers", r.inliers);
     }
 }
+
+#[test]
+fn a_query_larger_than_the_map_is_matched_at_the_map_size() {
+    let (ds, km) = kitchen_map();
+    let cfg = RefineConfig::default();
+    for i in [46, 54] {
+        let photo = decode(&ds.images[i].image);
+        let large = photo.resize_exact(1280, 960, image::imageops::FilterType::Triangle);
+        let r = km.refine(&large, None, &cfg).unwrap();
+        assert!(r.refined, "frame {i}: {:?}", r.fallback);
+        let truth = ds.images[i].frame.pose;
+        assert!(position_error(&truth, &r.pose) < 0.05);
+        // It is matched as the same image reduced to the map's 640x480 by area: the same
+        // corners, so the same pose to the bit.
+        let mut small = image::GrayImage::new(640, 480);
+        imgproc::view::resize_gray(&map::keyframes::gray_of(&large).unwrap(), &mut small).unwrap();
+        let reduced = km
+            .refine(&DynamicImage::ImageLuma8(small), None, &cfg)
+            .unwrap();
+        assert_eq!(r.pose, reduced.pose, "frame {i}");
+    }
+}
+
+#[test]
+fn maps_of_two_stretches_join_into_one() {
+    let root = shared("7scenes_redkitchen_seq01");
+    let ds = posed::open(&root).unwrap();
+    let camera = ds.require_camera().unwrap();
+    let build = |images: &[PosedImage], camera: &geom::Camera| {
+        let mapped: Vec<&PosedImage> = images.iter().collect();
+        map::keyframes::build(
+            &mapped,
+            camera,
+            &map::Lifting::depth_of(&ds, camera),
+            &BuildConfig::default(),
+            &|| {},
+        )
+        .unwrap()
+    };
+    let mut before = build(&ds.images[..40], &camera);
+    let after = build(&ds.images[60..100], &camera);
+    let (n, points) = (before.len() + after.len(), before.points() + after.points());
+    before.extend(after).unwrap();
+    assert_eq!((before.len(), before.points()), (n, points));
+    assert_eq!(before.retrieval.len(), n);
+    // The gap between the two is refined from keyframes on both sides.
+    let i = 50;
+    let r = before
+        .refine(&decode(&ds.images[i].image), None, &RefineConfig::default())
+        .unwrap();
+    assert!(r.refined, "{:?}", r.fallback);
+    assert!(position_error(&ds.images[i].frame.pose, &r.pose) < 0.05);
+    // A map of another camera is refused, and the map is left as it was.
+    let mut other = build(&ds.images[..10], &camera);
+    other.camera = camera.resized(320, 240);
+    let e = before.extend(other).unwrap_err().to_string();
+    assert!(e.contains("another camera"), "{e}");
+    assert_eq!(before.len(), n);
+}
