@@ -143,12 +143,11 @@ impl RetrievalIndex {
 
     /// Adds `other`'s keyframes after these; their descriptors must be of the same width.
     pub fn extend(&mut self, other: RetrievalIndex) -> Result<()> {
-        let width = |ix: &RetrievalIndex| ix.descriptors.len() / ix.keyframes.len().max(1);
-        if !self.is_empty() && !other.is_empty() && width(self) != width(&other) {
+        if !self.is_empty() && !other.is_empty() && self.width() != other.width() {
             return Err(MapError::Input(format!(
                 "descriptors of {} and {} values cannot share an index",
-                width(self),
-                width(&other)
+                self.width(),
+                other.width()
             )));
         }
         self.keyframes.extend(other.keyframes);
@@ -158,8 +157,13 @@ impl RetrievalIndex {
 
     /// The descriptor of keyframe `i`.
     pub fn descriptor(&self, i: usize) -> &[f32] {
-        let w = self.descriptors.len() / self.keyframes.len().max(1);
+        let w = self.width();
         &self.descriptors[i * w..(i + 1) * w]
+    }
+
+    /// Values per descriptor.
+    fn width(&self) -> usize {
+        self.descriptors.len() / self.keyframes.len().max(1)
     }
 
     /// Number of mapped frames.
