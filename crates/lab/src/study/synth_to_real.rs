@@ -49,7 +49,7 @@ const NEAR_RADIUS_M: f64 = 0.3;
 /// Largest rotation of a rendered camera from a training frame's, degrees.
 const NEAR_ANGLE_DEG: f64 = 10.0;
 /// Sequences of the renders (whole sequences are held out for validation).
-const SEQUENCES: usize = 10;
+const SEQUENCES: usize = 40;
 /// Keyframes retrieved for each photo, each matched with its neighbours as a group of its own
 /// ([`RefineConfig::grouped`]): thumbnails of renders find the right keyframes of a photo less
 /// often than those of photos.

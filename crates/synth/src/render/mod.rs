@@ -39,6 +39,9 @@
 //! 3. Finishing: motion-blur sub-frames averaged, vignetting, tone mapping (a soft shoulder)
 //!    and sRGB encoding, sensor noise drawn from a hash of the seed and the pixel (same seed,
 //!    same bytes).
+//! 4. A scan (every triangle unlit) has gaps where its depth camera saw nothing; in the
+//!    photo-like modes (`textured`, `shaded`) they take the colours around them ([`fill`]:
+//!    push-pull), as a photo there would show something; depth stays 0 there.
 //!
 //! A distorted lens is rendered through an undistorted pinhole raster that covers the lens's
 //! field of view: each output pixel looks up the triangle at its nearest raster pixel, then
@@ -77,6 +80,7 @@
 //! Without `shadows`, light passes through walls. Shadow rays ignore emissive triangles (lamp
 //! fixtures) and this frame's extra triangles.
 
+mod fill;
 mod lens;
 mod post;
 mod raster;
@@ -300,9 +304,12 @@ impl Renderer {
             // SAFETY: `frame_avx2` requires only AVX2, which the running CPU was just found to
             // have.
             unsafe { self.frame_avx2(scene, cam, camera, pose, opts, extra) };
-            return Ok(&self.out);
+        } else {
+            self.frame(scene, cam, camera, pose, opts, extra);
         }
-        self.frame(scene, cam, camera, pose, opts, extra);
+        if scene.scan && matches!(opts.mode, RenderMode::Textured | RenderMode::Shaded) {
+            fill::fill_empty(&mut self.out.rgb, &self.out.depth);
+        }
         Ok(&self.out)
     }
 

@@ -13,9 +13,13 @@ use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Textures are resampled to at most this many texels per side: the renderer's images are small
-/// (160x120 to 640x480), so bigger textures would only cost cache misses.
-const MAX_TEXTURE_SIDE: u32 = 1024;
+/// Most texels per side of a mip level 0. [`texture::bake`] already keeps pattern and image
+/// textures within [`texture::MAX_IMAGE_SIDE`] (the renderer's images are small, so bigger ones
+/// would only cost cache misses); a scan's atlas may reach [`texture::MAX_ATLAS_SIDE`], and
+/// shrinking it here would blend each triangle's cell with its neighbours' (a network of
+/// lines along every triangle's edges, and a quarter of the texels: a kitchen's 4096 x 2048
+/// atlas was rendered at 1024 x 512 until this allowed the atlas's side).
+const MAX_TEXTURE_SIDE: u32 = texture::MAX_ATLAS_SIDE;
 
 /// Triangles smaller than this (m²) cover no pixel from any sensible distance; dropping them
 /// keeps their undefined normals and texture gradients out of the renderer.
@@ -651,6 +655,9 @@ pub struct RenderScene {
     pub(crate) daylight: f32,
     pub(crate) haze: f32,
     pub(crate) haze_color: [f32; 3],
+    /// Every triangle is unlit: a scan, whose gaps are filled in the photo-like modes
+    /// ([`super::fill`]).
+    pub(crate) scan: bool,
     dropped: usize,
 }
 
@@ -759,6 +766,10 @@ impl RenderScene {
             .collect();
         let finite01 = |x: f32, default: f32| if x.is_finite() { x.max(0.0) } else { default };
         let ambient = finite01(atm.ambient, Atmosphere::DEFAULT_AMBIENT);
+        let scan = !tris.is_empty()
+            && tris
+                .iter()
+                .all(|t| materials[usize::from(t.material)].unlit);
         Ok(RenderScene {
             id: NEXT_SCENE_ID.fetch_add(1, Ordering::Relaxed),
             tris,
@@ -771,6 +782,7 @@ impl RenderScene {
             daylight: finite01(atm.daylight, 0.0),
             haze: finite01(atm.haze, 0.0),
             haze_color: atm.haze_color.map(|c| srgb_to_linear(finite01(c, 0.5))),
+            scan,
             dropped,
         })
     }
@@ -1028,4 +1040,41 @@ pub(crate) fn cross32(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
         a[2] * b[0] - a[0] * b[2],
         a[0] * b[1] - a[1] * b[0],
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_scan_atlas_keeps_every_texel_of_its_cells() {
+        let (w, h) = (texture::MAX_ATLAS_SIDE, 8);
+        // Cells of 4 texels in alternating colours, as `recon`'s atlas packs triangles.
+        let texels: Vec<[u8; 3]> = (0..w * h)
+            .map(|i| match (i % w) / 4 % 2 {
+                0 => [200, 40, 40],
+                _ => [40, 40, 200],
+            })
+            .collect();
+        let tex = Texture {
+            width: w,
+            height: h,
+            texels: texels.clone(),
+            repeat_m: [1.0, 1.0],
+        };
+        let mips = Mips::new(&tex, [0; 3]);
+        let level = &mips.levels[0];
+        assert_eq!((level.wmask + 1, level.hmask + 1), (w as i32, h as i32));
+        for x in [0, 3, 4, 7, 2048, w as usize - 1] {
+            assert_eq!(level.texels[x], pack(texels[x]), "texel {x}");
+        }
+    }
+
+    #[test]
+    fn textures_between_powers_of_two_are_rounded_in_log_scale() {
+        assert_eq!(pot(1000), 1024);
+        assert_eq!(pot(700), 512);
+        assert_eq!(pot(4096), 4096);
+        assert_eq!(pot(10_000), texture::MAX_ATLAS_SIDE);
+    }
 }
