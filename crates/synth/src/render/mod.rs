@@ -1243,6 +1243,59 @@ mod tests {
         Ok(())
     }
 
+    /// A scan's gap (nothing seen) takes the colour around it in the photo-like modes and keeps
+    /// depth 0; a lit model's gap stays the background's black.
+    #[test]
+    fn render_a_scans_gaps_take_the_colours_around_them() -> R {
+        let texel = [200u8, 120, 60];
+        let image = std::sync::Arc::new(image::RgbImage::from_pixel(2, 2, image::Rgb(texel)));
+        let world_with = |unlit: bool| {
+            let mut w = World::default();
+            let m = w.add_material(Material {
+                pattern: Pattern::Image(image.clone()),
+                unlit,
+                ..Material::plain("scan", [1.0; 3])
+            });
+            // Half a wall at x = 2 (the right half of the view): the left half sees nothing.
+            let corners = [
+                [2.0, -3.0, -2.0],
+                [2.0, -3.0, 4.0],
+                [2.0, 0.0, 4.0],
+                [2.0, 0.0, -2.0],
+            ];
+            quad(&mut w, corners, m, 0);
+            w
+        };
+        let camera = Camera::from_hfov(32, 24, 1.0)?;
+        let pose = look_at([0.0, 0.0, 1.0], [2.0, 0.0, 1.0])?;
+        for unlit in [true, false] {
+            let scene = RenderScene::new(&world_with(unlit))?;
+            for mode in [RenderMode::Textured, RenderMode::Shaded] {
+                let out = render(&scene, &camera, &pose, &flat(mode))?;
+                let gaps: Vec<_> = out
+                    .rgb
+                    .pixels()
+                    .zip(&out.depth)
+                    .filter(|(_, d)| **d == 0.0)
+                    .map(|(p, _)| p.0)
+                    .collect();
+                assert!(gaps.len() > 100, "{} gap pixels", gaps.len());
+                let seen = out.rgb.get_pixel(28, 12).0;
+                for p in gaps {
+                    if unlit {
+                        assert!(
+                            (0..3).all(|k| p[k].abs_diff(seen[k]) <= 5),
+                            "{p:?} {seen:?}"
+                        );
+                    } else {
+                        assert_eq!(p, [0, 0, 0], "{mode:?}");
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// The AVX2 build of a frame and the portable one do the same operations in the same
     /// order, so they give the same images, depths and planes (the reference frames of
     /// `tests/render_reference.rs` check only the build the testing CPU runs).
