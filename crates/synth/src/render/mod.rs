@@ -40,7 +40,7 @@
 //!    and sRGB encoding, sensor noise drawn from a hash of the seed and the pixel (same seed,
 //!    same bytes).
 //! 4. A scan (every triangle unlit) has gaps where its depth camera saw nothing; in the
-//!    photo-like modes (`textured`, `shaded`) they take the colours around them ([`fill`]:
+//!    photo-like modes (`textured`, `shaded`) they take the colours around them (`fill`:
 //!    push-pull), as a photo there would show something; depth stays 0 there.
 //!
 //! A distorted lens is rendered through an undistorted pinhole raster that covers the lens's

@@ -656,7 +656,7 @@ pub struct RenderScene {
     pub(crate) haze: f32,
     pub(crate) haze_color: [f32; 3],
     /// Every triangle is unlit: a scan, whose gaps are filled in the photo-like modes
-    /// ([`super::fill`]).
+    /// (`render::fill`).
     pub(crate) scan: bool,
     dropped: usize,
 }
