@@ -1179,28 +1179,35 @@ mod tests {
         Ok(())
     }
 
+    /// A world of one wall at x = 2 facing −x, from y = −3 to `y_max` and z = −2 to 4, showing
+    /// an image of one colour, `unlit` (a scan) or lit.
+    fn image_wall(texel: [u8; 3], y_max: f32, unlit: bool) -> World {
+        let image = std::sync::Arc::new(image::RgbImage::from_pixel(2, 2, image::Rgb(texel)));
+        let mut w = World::default();
+        let m = w.add_material(Material {
+            pattern: Pattern::Image(image),
+            unlit,
+            ..Material::plain("scan", [1.0; 3])
+        });
+        let corners = [
+            [2.0, -3.0, -2.0],
+            [2.0, -3.0, 4.0],
+            [2.0, y_max, 4.0],
+            [2.0, y_max, -2.0],
+        ];
+        quad(&mut w, corners, m, 0);
+        w
+    }
+
     /// An unlit surface (a scan's photograph) renders as its texture's colour under the default
     /// atmosphere, whatever lamp hangs before it; a lit twin does not. `Dim` halves its light
     /// (ambient 0.25 → 0.125), `SomeLightsOff` leaves it, and haze still veils it.
     #[test]
     fn render_unlit_surface_shows_its_texture_as_it_is() -> R {
         let texel = [200u8, 120, 60];
-        let image = std::sync::Arc::new(image::RgbImage::from_pixel(2, 2, image::Rgb(texel)));
         let world_with = |unlit: bool| {
-            let mut w = World::default();
-            let m = w.add_material(Material {
-                pattern: Pattern::Image(image.clone()),
-                unlit,
-                ..Material::plain("scan", [1.0; 3])
-            });
             // A wall at x = 2 facing the camera (its normal is −x), filling the view.
-            let corners = [
-                [2.0, -3.0, -2.0],
-                [2.0, -3.0, 4.0],
-                [2.0, 3.0, 4.0],
-                [2.0, 3.0, -2.0],
-            ];
-            quad(&mut w, corners, m, 0);
+            let mut w = image_wall(texel, 3.0, unlit);
             w.lights.push(Light {
                 position: Point3::new(1.0, 0.0, 1.0),
                 intensity: 1.0,
@@ -1248,24 +1255,8 @@ mod tests {
     #[test]
     fn render_a_scans_gaps_take_the_colours_around_them() -> R {
         let texel = [200u8, 120, 60];
-        let image = std::sync::Arc::new(image::RgbImage::from_pixel(2, 2, image::Rgb(texel)));
-        let world_with = |unlit: bool| {
-            let mut w = World::default();
-            let m = w.add_material(Material {
-                pattern: Pattern::Image(image.clone()),
-                unlit,
-                ..Material::plain("scan", [1.0; 3])
-            });
-            // Half a wall at x = 2 (the right half of the view): the left half sees nothing.
-            let corners = [
-                [2.0, -3.0, -2.0],
-                [2.0, -3.0, 4.0],
-                [2.0, 0.0, 4.0],
-                [2.0, 0.0, -2.0],
-            ];
-            quad(&mut w, corners, m, 0);
-            w
-        };
+        // Half a wall at x = 2 (the right half of the view): the left half sees nothing.
+        let world_with = |unlit: bool| image_wall(texel, 0.0, unlit);
         let camera = Camera::from_hfov(32, 24, 1.0)?;
         let pose = look_at([0.0, 0.0, 1.0], [2.0, 0.0, 1.0])?;
         for unlit in [true, false] {
