@@ -5,6 +5,7 @@ use crate::output::{print_json, print_text};
 use crate::progress::TrainingDisplay;
 use crate::{Context, Result};
 use clap::{Args, ValueEnum};
+use learn::calibrate::ValidationPasses;
 use learn::place::{PlaceConfig, PlaceEpoch, PlaceLoaded};
 use learn::seq::{SeqConfig, SeqEpoch, SeqFeatures, SeqSummary};
 use learn::{Arch, EpochMetrics, Loaded, OptimizerKind, Schedule, Task, TrainConfig, TrainSummary};
@@ -504,20 +505,22 @@ pub fn train_with_progress(cfg: &TrainConfig, lines: bool) -> Result<TrainSummar
         },
     };
     let summary = display.run(|progress| learn::train(cfg, progress))?;
-    calibrate_fused(cfg)?;
+    calibrate_fused(cfg, summary.validation.as_ref())?;
     Ok(summary)
 }
 
 /// Fits the fused track's calibration for the model `cfg` trained ([`track::calibrate`]) when it
-/// has a network calibration and no fused one: the validation walk through the temporal filter
-/// (a few seconds).
-fn calibrate_fused(cfg: &TrainConfig) -> Result<()> {
+/// has a network calibration and no fused one: the validation walk through the temporal filter,
+/// from the network calibration's own passes (`validation`) when this run made them (a
+/// fraction of a second), else localized again (a model resumed from before the fused
+/// calibration existed).
+fn calibrate_fused(cfg: &TrainConfig, validation: Option<&ValidationPasses>) -> Result<()> {
     let meta = learn::checkpoint::ModelMeta::read(&cfg.out)?;
     if meta.uncertainty.is_some_and(|u| u.fused.is_none()) {
         let plan = cfg
             .blocks
             .map_or(data::posed::SplitPlan::Auto, data::posed::SplitPlan::Blocks);
-        track::calibrate::calibrate_model(&cfg.out, &cfg.data, plan)
+        track::calibrate::calibrate_model(&cfg.out, &cfg.data, plan, validation)
             .with_context(|| format!("calibrating the fused track of {}", cfg.out.display()))?;
     }
     Ok(())

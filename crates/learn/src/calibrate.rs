@@ -51,18 +51,41 @@ pub struct ValidationFrame {
     pub rot_spread: f64,
 }
 
+/// What [`calibrate`] fits, with the passes it fitted them on.
+pub(crate) struct Calibrated {
+    /// The weights of the covariance parts.
+    pub weights: SigmaWeights,
+    /// What the weighed covariance means as a probability.
+    pub calibration: UncertaintyCalibration,
+    /// The validation frames through the calibrated model.
+    pub passes: ValidationPasses,
+}
+
+/// The validation frames as the calibrated model estimates them ([`CALIBRATION_MC`] MC passes
+/// and TTA): what the fused track's calibration (`track::calibrate`) runs through its filter.
+/// Handed on from training, so that the same backbone passes (a minute or more for a few
+/// hundred frames) are not run twice.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ValidationPasses {
+    /// `seq/frame` name of each frame, as the dataset names it.
+    pub names: Vec<String>,
+    /// Ground truth of each frame.
+    pub truth: Vec<Pose>,
+    /// The calibrated model's estimate of each frame: what
+    /// [`Localizer::predict_batch`] gives it with TTA and [`CALIBRATION_MC`] passes.
+    pub estimates: Vec<crate::Estimate>,
+}
+
 /// The weights and the calibration fitted for the model in `dir` on `val` (its validation
-/// samples, views as the model takes them); `None` when there are fewer than [`MIN_FRAMES`].
-pub(crate) fn calibrate(
-    dir: &Path,
-    val: &Samples,
-) -> Result<Option<(SigmaWeights, UncertaintyCalibration)>> {
+/// samples, views as the model takes them), with the passes they were fitted on; `None` when
+/// there are fewer than [`MIN_FRAMES`].
+pub(crate) fn calibrate(dir: &Path, val: &Samples) -> Result<Option<Calibrated>> {
     if val.len() < MIN_FRAMES {
         return Ok(None);
     }
     let loc = Localizer::load(dir)?;
-    let task = loc.meta().coding.task;
-    let mount = loc.meta().coding.mount;
+    let coding = loc.meta().coding.clone();
+    let (task, mount) = (coding.task, coding.mount);
     let per = val.view_len();
     let views: Vec<View> = val
         .inputs
@@ -75,19 +98,41 @@ pub(crate) fn calibrate(
             norm: None,
         })
         .collect();
-    let frames: Vec<ValidationFrame> = loc
-        .with_tta(true)
-        .sigma_parts(&views, CALIBRATION_MC)?
-        .into_iter()
+    let outputs = loc.with_tta(true).sigma_parts(&views, CALIBRATION_MC)?;
+    let frames: Vec<ValidationFrame> = outputs
+        .iter()
         .zip(&val.poses)
         .map(|((pose, parts, rot_spread_deg), truth)| ValidationFrame {
             error: pose.translation - truth.translation,
-            rot_error: rotation_error(task, mount, truth, &pose),
-            parts,
+            rot_error: rotation_error(task, mount, truth, pose),
+            parts: *parts,
             rot_spread: rot_spread_deg.to_radians(),
         })
         .collect();
-    Ok(fit_all(&frames, task))
+    let Some((weights, calibration)) = fit_all(&frames, task) else {
+        return Ok(None);
+    };
+    let estimates = outputs
+        .into_iter()
+        .map(|(pose, parts, rot_spread_deg)| {
+            crate::infer::weighed(
+                &coding,
+                &weights,
+                Some(&calibration),
+                (pose, &parts, rot_spread_deg),
+                CALIBRATION_MC,
+            )
+        })
+        .collect();
+    Ok(Some(Calibrated {
+        weights,
+        calibration,
+        passes: ValidationPasses {
+            names: val.names.clone(),
+            truth: val.poses.clone(),
+            estimates,
+        },
+    }))
 }
 
 /// The rotation error the study and the calibration use: the heading error for a 3-DoF model,

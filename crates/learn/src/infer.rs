@@ -371,7 +371,7 @@ impl ImageOutputs {
 
 /// The estimate of a pose with its covariance parts and MC rotation spread (degrees): the
 /// parts weighed by `weights`, then scaled by `calibration` when there is one.
-fn weighed(
+pub(crate) fn weighed(
     coding: &PoseCoding,
     weights: &SigmaWeights,
     calibration: Option<&UncertaintyCalibration>,

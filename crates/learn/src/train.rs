@@ -18,6 +18,7 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
+use crate::calibrate::ValidationPasses;
 use crate::checkpoint::{
     self, DatasetRef, EpochMetrics, FORMAT, MODEL_BPK, MODEL_TOML, ModelMeta, STATE_DIR, StateFiles,
 };
@@ -69,10 +70,13 @@ pub struct TrainSummary {
     pub val_frames: usize,
     /// Per-epoch metrics (over all resumed runs).
     pub history: Vec<EpochMetrics>,
+    /// The validation frames through the calibrated model, when this run calibrated it
+    /// (`None` when the model was calibrated before, or had too few validation frames).
+    pub validation: Option<ValidationPasses>,
 }
 
 impl TrainSummary {
-    fn of(meta: &ModelMeta, out: &Path) -> TrainSummary {
+    fn of(meta: &ModelMeta, out: &Path, validation: Option<ValidationPasses>) -> TrainSummary {
         TrainSummary {
             out: out.to_path_buf(),
             epochs: meta.epoch,
@@ -83,6 +87,7 @@ impl TrainSummary {
             train_frames: meta.dataset.train_frames,
             val_frames: meta.dataset.val_frames,
             history: meta.history.clone(),
+            validation,
         }
     }
 }
@@ -324,7 +329,7 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
         fresh(cfg, &data, &spec, &device)?
     };
     if meta.stopped_early {
-        return Ok(TrainSummary::of(&meta, &cfg.out));
+        return Ok(TrainSummary::of(&meta, &cfg.out, None));
     }
     // A frozen backbone's maps are computed once; training and validation read them instead
     // of the views (the views stay for the calibration at the end).
@@ -445,13 +450,16 @@ pub fn train(cfg: &TrainConfig, progress: &mut dyn FnMut(&TrainEvent)) -> Result
             break;
         }
     }
+    let mut validation = None;
     if meta.uncertainty.is_none() && meta.best_epoch > 0 {
-        let fitted = crate::calibrate::calibrate(&cfg.out, &data.val)?;
-        (meta.sigma_weights, meta.uncertainty) =
-            fitted.map_or((None, None), |(w, c)| (Some(w), Some(c)));
+        if let Some(fitted) = crate::calibrate::calibrate(&cfg.out, &data.val)? {
+            meta.sigma_weights = Some(fitted.weights);
+            meta.uncertainty = Some(fitted.calibration);
+            validation = Some(fitted.passes);
+        }
         meta.write(&cfg.out)?;
     }
-    Ok(TrainSummary::of(&meta, &cfg.out))
+    Ok(TrainSummary::of(&meta, &cfg.out, validation))
 }
 
 /// The view a pretrained backbone gets by default: 320x240 RGB with ImageNet's statistics

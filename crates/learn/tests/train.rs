@@ -111,6 +111,51 @@ fn loss_falls_and_inference_reproduces_the_stored_validation_error() {
     );
     // The model learned something: better than always answering the mean position (~1.2 m).
     assert!(pos < 1.0, "median position error {pos}");
+
+    // The calibration's passes over the validation frames, handed on for the fused track's,
+    // are what the calibrated model gives those frames read from disk.
+    let passes = summary.validation.expect("24 validation frames calibrate");
+    let ds = data::native::NativeDataset::open(&data).unwrap();
+    let val = ds.split_frames(data::native::SplitName::Val);
+    let names: Vec<String> = val
+        .iter()
+        .map(|&i| {
+            format!(
+                "{}/{}",
+                ds.trajectory.frames[i].seq, ds.trajectory.frames[i].name
+            )
+        })
+        .collect();
+    assert_eq!(passes.names, names);
+    let loc = loc.with_tta(true);
+    let views: Vec<_> = val
+        .iter()
+        .map(|&i| {
+            let name = &ds.trajectory.frames[i].name;
+            loc.view(&image::open(ds.frame_path(name.parse().unwrap())).unwrap())
+                .unwrap()
+        })
+        .collect();
+    let again = loc
+        .predict_batch(&views, learn::calibrate::CALIBRATION_MC)
+        .unwrap();
+    assert_eq!(passes.estimates.len(), again.len());
+    for (handed, now) in passes.estimates.iter().zip(&again) {
+        assert_eq!(handed.passes, now.passes);
+        assert!(
+            position_error(&handed.pose, &now.pose) < 1e-6,
+            "{handed:?} {now:?}"
+        );
+        assert!(
+            (handed.cov_pos_m2 - now.cov_pos_m2).abs().max() < 1e-9,
+            "{handed:?} {now:?}"
+        );
+        assert!((handed.sigma_rot_deg - now.sigma_rot_deg).abs() < 1e-6);
+    }
+    // A model resumed with its calibration made hands on nothing.
+    let mut cfg = tiny_config(&data, &out, 4);
+    cfg.resume = true;
+    assert_eq!(run(&cfg).0.validation, None);
 }
 
 #[test]

@@ -8,13 +8,14 @@
 //! (`uncertainty.fused`); [`FilterConfig::cov_scale`] applies its scale to what the filter
 //! reports.
 
+use std::collections::HashMap;
 use std::path::Path;
 
 use data::native::SplitName;
 use data::posed::{self, SplitPlan};
 use geom::Pose;
 use geom::uncertainty::{Calibration, Standardised};
-use learn::calibrate::CALIBRATION_MC;
+use learn::calibrate::{CALIBRATION_MC, ValidationPasses};
 use learn::checkpoint::ModelMeta;
 use learn::{Estimate, Localizer};
 use nalgebra::Matrix3;
@@ -75,29 +76,44 @@ pub fn fit_fused(walk: &Walk<'_>, dims: usize) -> Option<Calibration> {
 }
 
 /// Fits the fused calibration of the model in `dir` on the validation part of `data` (split
-/// by `plan`, as training split it) and stores it in `dir/model.toml`. Returns it; `None`
-/// (nothing written) when the model has no network calibration or too few validation frames.
-pub fn calibrate_model(dir: &Path, data: &Path, plan: SplitPlan) -> Result<Option<Calibration>> {
+/// by `plan`, as training split it) and stores it in `dir/model.toml`. `passes`: the
+/// validation frames as training's own calibration estimated them
+/// ([`learn::TrainSummary::validation`]), used as they are rather than run through the
+/// network again; without them the frames of the `plan`'s validation part are localized now.
+/// Returns the calibration; `None` (nothing written) when the model has no network
+/// calibration or too few validation frames.
+pub fn calibrate_model(
+    dir: &Path,
+    data: &Path,
+    plan: SplitPlan,
+    passes: Option<&ValidationPasses>,
+) -> Result<Option<Calibration>> {
     let loc = Localizer::load(dir)?.with_tta(true);
     if loc.meta().uncertainty.is_none() {
         return Ok(None);
     }
     let ds = posed::open(data)?;
-    let parts = ds.parts(plan);
-    let index: Vec<usize> = (0..ds.images.len())
-        .filter(|&i| parts[i] == Some(SplitName::Val))
-        .collect();
-    if index.len() < geom::uncertainty::MIN_CALIBRATION_FRAMES {
-        return Ok(None);
-    }
-    let views = index
-        .iter()
-        .map(|&i| {
-            let img = data::frames::decode_image(&ds.images[i].image)?;
-            Ok(loc.view(&img)?)
-        })
-        .collect::<Result<Vec<_>>>()?;
-    let estimates = loc.predict_batch(&views, CALIBRATION_MC)?;
+    let (index, estimates) = match passes {
+        Some(p) => passes_in_order(&ds, p, data)?,
+        None => {
+            let parts = ds.parts(plan);
+            let index: Vec<usize> = (0..ds.images.len())
+                .filter(|&i| parts[i] == Some(SplitName::Val))
+                .collect();
+            if index.len() < geom::uncertainty::MIN_CALIBRATION_FRAMES {
+                return Ok(None);
+            }
+            let views = index
+                .iter()
+                .map(|&i| {
+                    let img = data::frames::decode_image(&ds.images[i].image)?;
+                    Ok(loc.view(&img)?)
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let estimates = loc.predict_batch(&views, CALIBRATION_MC)?;
+            (index, estimates)
+        }
+    };
     let truth: Vec<Pose> = index.iter().map(|&i| ds.images[i].frame.pose).collect();
     // 7-Scenes and most posed sets carry no clock: 30 frames per second, Kinect's rate.
     let rate = ds.info.as_ref().map_or(30.0, |i| i.frame_rate);
@@ -126,6 +142,36 @@ pub fn calibrate_model(dir: &Path, data: &Path, plan: SplitPlan) -> Result<Optio
     u.fused = Some(cal.clone());
     meta.write(dir)?;
     Ok(Some(cal))
+}
+
+/// The dataset index of each frame of `passes` with its estimate, in the dataset's order (the
+/// filter walks them in time). A name the dataset (`root`) lacks is an error: the passes come
+/// from another dataset.
+fn passes_in_order(
+    ds: &posed::PosedDataset,
+    passes: &ValidationPasses,
+    root: &Path,
+) -> Result<(Vec<usize>, Vec<Estimate>)> {
+    let by_name: HashMap<String, usize> = ds
+        .images
+        .iter()
+        .enumerate()
+        .map(|(i, img)| (format!("{}/{}", img.frame.seq, img.frame.name), i))
+        .collect();
+    let mut frames = passes
+        .names
+        .iter()
+        .zip(&passes.estimates)
+        .map(|(name, e)| match by_name.get(name) {
+            Some(&i) => Ok((i, e.clone())),
+            None => Err(TrackError::Config(format!(
+                "{}: no frame `{name}`, which the model was validated on",
+                root.display()
+            ))),
+        })
+        .collect::<Result<Vec<_>>>()?;
+    frames.sort_by_key(|&(i, _)| i);
+    Ok(frames.into_iter().unzip())
 }
 
 /// Run ids of frames `index` (ascending): a new run where the sequence changes or a frame is

@@ -347,7 +347,9 @@ fn fused_calibration(model: &Model, data: &Path, plan: SplitPlan) -> Result<Opti
     if let Some(c) = &model.calibration.fused {
         return Ok(Some(c.clone()));
     }
-    Ok(track::calibrate::calibrate_model(&model.dir, data, plan)?)
+    Ok(track::calibrate::calibrate_model(
+        &model.dir, data, plan, None,
+    )?)
 }
 
 /// The four rows of one held-out set: network and fused track, before and after calibration.
