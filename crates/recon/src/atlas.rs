@@ -21,7 +21,7 @@ use rayon::prelude::*;
 
 /// Cells of one triangle are at least this many texels across (so the first two mip levels
 /// average the cell's own texels)…
-const MIN_CELL: usize = 4;
+pub const MIN_CELL: usize = 4;
 /// …and at most this many.
 const MAX_CELL: usize = 64;
 /// Largest atlas side, texels: what `synth` keeps of a scan's texture without resampling it

@@ -112,7 +112,10 @@ pub fn write_glb(
                 "metallicFactor": 0.0,
                 "roughnessFactor": 1.0
             },
-            "extensions": {"KHR_materials_unlit": {}}
+            "extensions": {"KHR_materials_unlit": {}},
+            // The texture is an atlas of cells, one per triangle: a renderer's mip levels
+            // past the smallest cell would average unrelated triangles (`synth` stops there).
+            "extras": {"indoorloc_atlas_cell": crate::atlas::MIN_CELL}
         }],
         "textures": [{"source": 0, "sampler": 0}],
         "samplers": [{"magFilter": 9729, "minFilter": 9987, "wrapS": 33071, "wrapT": 33071}],

@@ -136,6 +136,15 @@ fn a_scan_becomes_a_glb_that_synth_imports_upright() -> TestResult {
     assert!(ply.is_file());
     let (world, _) = synth::import::load(&glb, &synth::import::ImportOptions::default())?;
     assert_eq!(world.triangles.len(), scan.textured.triangle_count());
+    // Its texture is known for an atlas of cells, so that renders stop its mips at a cell.
+    let cell = recon::atlas::MIN_CELL as u32;
+    assert!(
+        world.materials.iter().all(
+            |m| matches!(m.pattern, synth::world::Pattern::Atlas { cell: c, .. } if c == cell)
+        ),
+        "{:?}",
+        world.materials.iter().map(|m| &m.name).collect::<Vec<_>>()
+    );
     let (lo, hi) = world.bounds().ok_or("empty")?;
     let (slo, shi) = scan.colored.bounds().ok_or("empty")?;
     for k in 0..3 {

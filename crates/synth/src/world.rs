@@ -82,6 +82,27 @@ pub enum Pattern {
     Fabric,
     /// An image texture from an imported model, sampled with `uv` in 0–1.
     Image(Arc<image::RgbImage>),
+    /// An image texture packed as an atlas of square cells, one per triangle, each at least
+    /// `cell` texels a side and aligned to its size (a scan's, from `recon`; glTF material
+    /// extras `indoorloc_atlas_cell`). Its mip levels stop where a cell is one texel: past
+    /// that a texel would average the cells of unrelated triangles, and far or oblique
+    /// surfaces would show their colours as speckle.
+    Atlas {
+        /// The atlas.
+        image: Arc<image::RgbImage>,
+        /// Side of the smallest cell, texels.
+        cell: u32,
+    },
+}
+
+impl Pattern {
+    /// The image of an image texture or atlas.
+    pub fn image(&self) -> Option<&Arc<image::RgbImage>> {
+        match self {
+            Pattern::Image(image) | Pattern::Atlas { image, .. } => Some(image),
+            _ => None,
+        }
+    }
 }
 
 /// A surface material.

@@ -34,6 +34,10 @@ const HANDLED: &[&str] = &[
     "KHR_materials_unlit",
 ];
 
+/// Material `extras` key of a texture atlas's smallest cell side in texels ([`Pattern::Atlas`];
+/// written by `recon`).
+pub const ATLAS_CELL_EXTRA: &str = "indoorloc_atlas_cell";
+
 /// Reads a `.gltf` or `.glb` file and what it references.
 pub(super) fn read(path: &Path, frame: Frame) -> Result<Soup> {
     let bytes = std::fs::read(path).map_err(|source| SynthError::Io {
@@ -624,6 +628,12 @@ impl Reader<'_> {
             .and_then(|e| e.get("emissiveStrength")?.as_f64())
             .unwrap_or(1.0) as f32;
         let emissive = mat.emissive_factor().iter().fold(0.0f32, |a, &b| a.max(b)) * strength;
+        // `recon`'s scans mark their texture an atlas of cells (see `Pattern::Atlas`).
+        let atlas_cell = key
+            .and_then(|i| self.raw.get("materials")?.get(i))
+            .and_then(|m| m.get("extras")?.get(ATLAS_CELL_EXTRA)?.as_u64())
+            .and_then(|c| u32::try_from(c).ok())
+            .filter(|c| c.is_power_of_two());
         let mut m = Material {
             seed: seed_of(&name),
             color: [srgb(f[0]), srgb(f[1]), srgb(f[2])],
@@ -641,7 +651,10 @@ impl Reader<'_> {
             let image = info.texture().source().index();
             match self.image(image) {
                 Ok(img) => {
-                    m.pattern = Pattern::Image(img);
+                    m.pattern = match atlas_cell {
+                        Some(cell) => Pattern::Atlas { image: img, cell },
+                        None => Pattern::Image(img),
+                    };
                     set = Some(info.tex_coord());
                 }
                 Err(why) => {
@@ -801,6 +814,7 @@ impl Reader<'_> {
 #[cfg(test)]
 pub(super) mod tests {
     use super::*;
+    use crate::World;
     use crate::import::{ImportOptions, load};
     use nalgebra::Point3;
     use std::path::PathBuf;
@@ -1381,6 +1395,39 @@ pub(super) mod tests {
                 .iter()
                 .all(|t| t.normal().dot(&(centre - t.v[0])) > 0.0)
         );
+        Ok(())
+    }
+
+    /// A material whose `extras` name its texture an atlas of cells (as `recon` writes it) gets
+    /// [`Pattern::Atlas`]; a cell side that is not a power of two is not trusted.
+    #[test]
+    fn import_gltf_atlas_cells_from_material_extras() -> TestResult {
+        let with_cell = |cell: &'static str| {
+            move |j: String| {
+                j.replace(
+                    r#"{"name": "floor", "pbrMetallicRoughness""#,
+                    &format!(
+                        r#"{{"name": "floor", "extras": {{"{ATLAS_CELL_EXTRA}": {cell}}}, "pbrMetallicRoughness""#
+                    ),
+                )
+            }
+        };
+        let floor = |world: &World| {
+            world
+                .materials
+                .iter()
+                .find(|m| m.name == "floor")
+                .map(|m| m.pattern.clone())
+        };
+        let (_d, path) = edited("atlas.gltf", with_cell("4"))?;
+        let (world, _) = load(&path, &ImportOptions::default())?;
+        let Some(Pattern::Atlas { image, cell: 4 }) = floor(&world) else {
+            return Err(format!("{:?}", floor(&world)).into());
+        };
+        assert!(image.width() > 0);
+        let (_d, path) = edited("odd_cell.gltf", with_cell("3"))?;
+        let (world, _) = load(&path, &ImportOptions::default())?;
+        assert!(matches!(floor(&world), Some(Pattern::Image(_))));
         Ok(())
     }
 

@@ -3,7 +3,7 @@
 
 use super::{ImportOptions, ImportReport, Units, model_error, planes, walk};
 use crate::Result;
-use crate::world::{Light, Material, MaterialId, Pattern, Triangle, World};
+use crate::world::{Light, Material, MaterialId, Triangle, World};
 use nalgebra::{Point3, Vector3};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -284,7 +284,7 @@ pub(super) fn finish(mut soup: Soup, opts: &ImportOptions) -> Result<(World, Imp
     let textured: Vec<bool> = soup
         .materials
         .iter()
-        .map(|m| matches!(m.pattern, Pattern::Image(_)))
+        .map(|m| m.pattern.image().is_some())
         .collect();
     let mut missing_uv: HashMap<MaterialId, usize> = HashMap::new();
     let mut triangles = Vec::with_capacity(keep.len());

@@ -153,8 +153,10 @@ pub(crate) struct Mips {
 
 impl Mips {
     /// Mip levels of a baked texture; a malformed texture (size and texel count disagree) becomes
-    /// one texel of `fallback`, so a bad texture never stops a render.
-    fn new(tex: &Texture, fallback: [u8; 3]) -> Mips {
+    /// one texel of `fallback`, so a bad texture never stops a render. `cell`: the texture is
+    /// an atlas of cells at least this many texels a side ([`Pattern::Atlas`], measured on
+    /// `tex`): the levels stop where such a cell is one texel.
+    fn new(tex: &Texture, fallback: [u8; 3], cell: Option<f64>) -> Mips {
         let ok = tex.width > 0
             && tex.height > 0
             && (tex.width as usize).checked_mul(tex.height as usize) == Some(tex.texels.len());
@@ -178,6 +180,8 @@ impl Mips {
             resample(&src, w as usize, h as usize, tw as usize, th as usize)
         };
         let (mut cw, mut ch) = (tw as usize, th as usize);
+        // Levels 0 ..= log2(cell): the last one holds each cell's mean.
+        let most = cell.map_or(usize::MAX, |c| c.max(1.0).log2().floor() as usize + 1);
         let mut levels = Vec::new();
         loop {
             levels.push(Level {
@@ -188,7 +192,7 @@ impl Mips {
                 sv: ch as f32 / repeat[1],
                 texels: cur.iter().map(|&c| pack(c.map(linear_to_srgb8))).collect(),
             });
-            if cw == 1 && ch == 1 {
+            if (cw == 1 && ch == 1) || levels.len() == most {
                 break;
             }
             let (nw, nh) = ((cw / 2).max(1), (ch / 2).max(1));
@@ -276,10 +280,20 @@ impl Mips {
         }
     }
 
-    /// The texture's mean colour in linear light (its last, one-texel level).
+    /// The texture's mean colour in linear light: of its last level (one texel, or an
+    /// atlas's cell means).
     pub fn mean_linear(&self) -> [f32; 3] {
-        let c = self.levels.last().map_or(0, |l| l.texels[0]);
-        [0, 8, 16].map(|shift| srgb_to_linear(f32::from(((c >> shift) & 0xff) as u8) / 255.0))
+        let Some(last) = self.levels.last().filter(|l| !l.texels.is_empty()) else {
+            return [0.0; 3];
+        };
+        let mut sum = [0.0f64; 3];
+        for &c in &last.texels {
+            for (k, shift) in [0, 8, 16].into_iter().enumerate() {
+                let byte = ((c >> shift) & 0xff) as u8;
+                sum[k] += f64::from(srgb_to_linear(f32::from(byte) / 255.0));
+            }
+        }
+        sum.map(|s| (s / last.texels.len() as f64) as f32)
     }
 
     /// The level of detail for `rho2`, the squared texel footprint of a pixel on level 0:
@@ -708,7 +722,15 @@ impl RenderScene {
                 };
                 let fixture = glow.get(i).copied().flatten().unwrap_or(1.0).min(1.5);
                 let byte = color.map(|c| (c.clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
-                let mips = Mips::new(&texture::bake(m), byte);
+                let tex = texture::bake(m);
+                let cell = match &m.pattern {
+                    // The cell as baked: `bake` may have reduced the atlas.
+                    Pattern::Atlas { image, cell } => Some(
+                        f64::from(*cell) * f64::from(tex.width) / f64::from(image.width().max(1)),
+                    ),
+                    _ => None,
+                };
+                let mips = Mips::new(&tex, byte, cell);
                 let mut albedo = color.map(srgb_to_linear);
                 if m.unlit {
                     // A scan's flat colour is its photographs' mean, not the glTF factor
@@ -1062,12 +1084,57 @@ mod tests {
             texels: texels.clone(),
             repeat_m: [1.0, 1.0],
         };
-        let mips = Mips::new(&tex, [0; 3]);
+        let mips = Mips::new(&tex, [0; 3], None);
         let level = &mips.levels[0];
         assert_eq!((level.wmask + 1, level.hmask + 1), (w as i32, h as i32));
         for x in [0, 3, 4, 7, 2048, w as usize - 1] {
             assert_eq!(level.texels[x], pack(texels[x]), "texel {x}");
         }
+    }
+
+    /// Past the cell, a mip level of an atlas would average unrelated triangles' cells (red and
+    /// blue into purple): an atlas's levels stop at the cell, whose one texel is its mean.
+    #[test]
+    fn an_atlas_mip_chain_stops_where_a_cell_is_one_texel() {
+        let (w, h) = (64u32, 16u32);
+        let texels: Vec<[u8; 3]> = (0..w * h)
+            .map(|i| match (i % w) / 4 % 2 {
+                0 => [200, 40, 40],
+                _ => [40, 40, 200],
+            })
+            .collect();
+        let tex = Texture {
+            width: w,
+            height: h,
+            texels,
+            repeat_m: [1.0, 1.0],
+        };
+        let atlas = Mips::new(&tex, [0; 3], Some(4.0));
+        assert_eq!(atlas.levels.len(), 3);
+        let last = atlas.levels.last().unwrap();
+        assert_eq!((last.wmask + 1, last.hmask + 1), (16, 4));
+        for (x, &c) in last.texels[..16].iter().enumerate() {
+            let cell = if x % 2 == 0 {
+                [200, 40, 40]
+            } else {
+                [40, 40, 200]
+            };
+            assert_eq!(c, pack(cell), "cell {x}");
+        }
+        // Any footprint, however large, samples a cell's own colour.
+        let far = atlas.sample(0.5 / 64.0, 0.5, 1e6);
+        assert_eq!(far, pack([200, 40, 40]));
+        let mean = atlas.mean_linear();
+        assert!((mean[0] - mean[2]).abs() < 1e-6 && mean[0] > mean[1]);
+
+        let image = Mips::new(&tex, [0; 3], None);
+        assert_eq!(image.levels.len(), 7);
+        let mixed = image.levels[3].texels[0];
+        assert_ne!(
+            mixed,
+            pack([200, 40, 40]),
+            "a plain image's level 3 mixes the cells"
+        );
     }
 
     #[test]

@@ -181,7 +181,7 @@ pub fn bake(material: &Material) -> Texture {
         Pattern::Vent => vent(m),
         Pattern::Metal => metal(m),
         Pattern::Fabric => fabric(m),
-        Pattern::Image(img) => {
+        Pattern::Image(img) | Pattern::Atlas { image: img, .. } => {
             let max = if m.unlit {
                 MAX_ATLAS_SIDE
             } else {
