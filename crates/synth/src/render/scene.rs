@@ -1068,27 +1068,31 @@ pub(crate) fn cross32(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
 mod tests {
     use super::*;
 
+    /// Red and blue cells of 4 texels, alternating along each row, as `recon`'s atlas packs
+    /// triangles.
+    fn cell_atlas(w: u32, h: u32) -> Texture {
+        Texture {
+            width: w,
+            height: h,
+            texels: (0..w * h)
+                .map(|i| match (i % w) / 4 % 2 {
+                    0 => [200, 40, 40],
+                    _ => [40, 40, 200],
+                })
+                .collect(),
+            repeat_m: [1.0, 1.0],
+        }
+    }
+
     #[test]
     fn a_scan_atlas_keeps_every_texel_of_its_cells() {
         let (w, h) = (texture::MAX_ATLAS_SIDE, 8);
-        // Cells of 4 texels in alternating colours, as `recon`'s atlas packs triangles.
-        let texels: Vec<[u8; 3]> = (0..w * h)
-            .map(|i| match (i % w) / 4 % 2 {
-                0 => [200, 40, 40],
-                _ => [40, 40, 200],
-            })
-            .collect();
-        let tex = Texture {
-            width: w,
-            height: h,
-            texels: texels.clone(),
-            repeat_m: [1.0, 1.0],
-        };
+        let tex = cell_atlas(w, h);
         let mips = Mips::new(&tex, [0; 3], None);
         let level = &mips.levels[0];
         assert_eq!((level.wmask + 1, level.hmask + 1), (w as i32, h as i32));
         for x in [0, 3, 4, 7, 2048, w as usize - 1] {
-            assert_eq!(level.texels[x], pack(texels[x]), "texel {x}");
+            assert_eq!(level.texels[x], pack(tex.texels[x]), "texel {x}");
         }
     }
 
@@ -1096,19 +1100,7 @@ mod tests {
     /// blue into purple): an atlas's levels stop at the cell, whose one texel is its mean.
     #[test]
     fn an_atlas_mip_chain_stops_where_a_cell_is_one_texel() {
-        let (w, h) = (64u32, 16u32);
-        let texels: Vec<[u8; 3]> = (0..w * h)
-            .map(|i| match (i % w) / 4 % 2 {
-                0 => [200, 40, 40],
-                _ => [40, 40, 200],
-            })
-            .collect();
-        let tex = Texture {
-            width: w,
-            height: h,
-            texels,
-            repeat_m: [1.0, 1.0],
-        };
+        let tex = cell_atlas(64, 16);
         let atlas = Mips::new(&tex, [0; 3], Some(4.0));
         assert_eq!(atlas.levels.len(), 3);
         let last = atlas.levels.last().unwrap();
