@@ -88,14 +88,16 @@ pub fn calibrate_model(
     plan: SplitPlan,
     passes: Option<&ValidationPasses>,
 ) -> Result<Option<Calibration>> {
-    let loc = Localizer::load(dir)?.with_tta(true);
-    if loc.meta().uncertainty.is_none() {
+    let meta = ModelMeta::read(dir)?;
+    if meta.uncertainty.is_none() {
         return Ok(None);
     }
     let ds = posed::open(data)?;
     let (index, estimates) = match passes {
         Some(p) => passes_in_order(&ds, p, data)?,
+        // The network is loaded only to localize the frames again.
         None => {
+            let loc = Localizer::load(dir)?.with_tta(true);
             let parts = ds.parts(plan);
             let index: Vec<usize> = (0..ds.images.len())
                 .filter(|&i| parts[i] == Some(SplitName::Val))
@@ -122,7 +124,7 @@ pub fn calibrate_model(
         .map(|&i| ds.images[i].frame.t.unwrap_or(i as f64 / rate))
         .collect();
     let run = runs(&index, |i| ds.images[i].frame.seq.as_str());
-    let dims = loc.meta().coding.task.pos_dims();
+    let dims = meta.coding.task.pos_dims();
     let walk = Walk {
         estimates: &estimates,
         truth: &truth,
