@@ -6,6 +6,8 @@
 //! - [`keyframes`]: keyframes every few centimetres of a posed dataset, their local features
 //!   ([`features`]) lifted to 3-D with the frame's depth ([`depth`]) or, for photos without
 //!   depth, triangulated between keyframes ([`triangulate`]);
+//! - [`lines`]: a camera's roll from the building's straight lines (the vanishing points of its
+//!   three directions), which pose networks hardly see;
 //! - [`file`](mod@file): the map on disk (versioned, checksummed, written atomically);
 //! - [`pnp`]: P3P + RANSAC + Levenberg-Marquardt with a covariance;
 //! - [`refine`]: a query image's pose from the map, starting from a coarse pose or retrieval,
@@ -16,6 +18,7 @@ pub mod depth;
 mod error;
 pub mod file;
 pub mod keyframes;
+pub mod lines;
 pub mod pnp;
 pub mod refine;
 pub mod retrieval;

@@ -29,6 +29,7 @@ use geom::metrics::{PoseEvaluation, position_error, rotation_error_deg};
 use geom::{Camera, Pose};
 use image::DynamicImage;
 use learn::{Estimate, Localizer, TrainConfig};
+use map::lines::{LineConfig, LineEdges, ManhattanFrame};
 use map::{Coarse, KeyframeMap, RefineConfig};
 use rayon::prelude::*;
 use recon::{FuseConfig, ScanConfig};
@@ -114,8 +115,9 @@ pub struct SynthToRealConfig {
 /// One row of the table.
 #[derive(Debug, Serialize)]
 struct Row {
-    /// `network`, `network+map` (the network's pose refined against the map of renders) or
-    /// `map` (the map of renders alone, from its own retrieval).
+    /// `network`, `network+lines` (the network's pose with its roll from the photo's straight
+    /// lines, [`map::lines`]), `network+map` (the network's pose refined against the map of
+    /// renders) or `map` (the map of renders alone, from its own retrieval).
     method: &'static str,
     /// `real` (the training photos) or `renders` (renders of the scan alone).
     training: &'static str,
@@ -251,6 +253,13 @@ pub fn run(args: &SynthToRealConfig, sink: &mut dyn crate::Output) -> Result<()>
         .map(|i| data::frames::decode_image(&i.image))
         .collect::<std::result::Result<_, _>>()?;
 
+    let line_cfg = LineConfig::default();
+    let photo_lines: Vec<LineEdges> = photos
+        .par_iter()
+        .map(|img| LineEdges::detect(img, &camera, &line_cfg))
+        .collect();
+    let mut frame: Option<ManhattanFrame> = None;
+
     let epochs = |cfg: &mut TrainConfig| {
         cfg.epochs = args.epochs.unwrap_or(if args.quick { 10 } else { 30 });
         cfg.resume = true;
@@ -299,18 +308,27 @@ pub fn run(args: &SynthToRealConfig, sink: &mut dyn crate::Output) -> Result<()>
         network = format!("{} ({} epochs)", cfg.arch, cfg.epochs);
         let loc = Localizer::load(&model)?;
         let estimates = predict(&loc, &photos, Some(render_mode), args.mc)?;
-        methods.push(Method {
-            method: "network",
-            training: "renders",
-            render_type: (*mode).into(),
-            refined: false,
-            poses: estimates
-                .iter()
-                .map(|e| from_world.compose(&e.pose))
-                .collect(),
-            training_frames: renders,
-            val_median_pos_m: Some(summary.val_median_pos_m),
-        });
+        if frame.is_none() {
+            frame = Some(fit_frame(&data_dir, &line_cfg)?);
+        }
+        let world: Vec<Pose> = estimates.iter().map(|e| e.pose).collect();
+        for (method, poses) in [
+            ("network", world.clone()),
+            (
+                "network+lines",
+                with_lines(frame.as_ref(), &world, &photo_lines, &line_cfg),
+            ),
+        ] {
+            methods.push(Method {
+                method,
+                training: "renders",
+                render_type: (*mode).into(),
+                refined: false,
+                poses: poses.iter().map(|p| from_world.compose(p)).collect(),
+                training_frames: renders,
+                val_median_pos_m: Some(summary.val_median_pos_m),
+            });
+        }
         if *mode == "textured" {
             textured = Some((estimates, model));
         }
@@ -326,15 +344,24 @@ pub fn run(args: &SynthToRealConfig, sink: &mut dyn crate::Output) -> Result<()>
     train_s += t.elapsed().as_secs_f64();
     let loc = Localizer::load(&real_model)?;
     let real = predict(&loc, &photos, None, args.mc)?;
-    methods.push(Method {
-        method: "network",
-        training: "real",
-        render_type: "photo".into(),
-        refined: false,
-        poses: real.iter().map(|e| e.pose).collect(),
-        training_frames: mapped.len(),
-        val_median_pos_m: Some(summary.val_median_pos_m),
-    });
+    let world: Vec<Pose> = real.iter().map(|e| to_world.compose(&e.pose)).collect();
+    for (method, poses) in [
+        ("network", world.clone()),
+        (
+            "network+lines",
+            with_lines(frame.as_ref(), &world, &photo_lines, &line_cfg),
+        ),
+    ] {
+        methods.push(Method {
+            method,
+            training: "real",
+            render_type: "photo".into(),
+            refined: false,
+            poses: poses.iter().map(|p| from_world.compose(p)).collect(),
+            training_frames: mapped.len(),
+            val_median_pos_m: Some(summary.val_median_pos_m),
+        });
+    }
 
     let t = Instant::now();
     let mut map_render_s = 0.0;
@@ -463,6 +490,48 @@ fn predict(
         })
         .collect::<Result<Vec<_>>>()?;
     Ok(loc.predict_batch(&views, mc)?)
+}
+
+/// Renders of the building's lines fitted for its Manhattan frame ([`ManhattanFrame::fit`]):
+/// enough to find its two wall directions, a few seconds.
+const FRAME_RENDERS: usize = 100;
+
+/// The building's three directions, fitted to the lines of up to [`FRAME_RENDERS`] renders in
+/// `dir` (spread over them) at their known poses, about the scan's up (z): no photo is used.
+fn fit_frame(dir: &Path, cfg: &LineConfig) -> Result<ManhattanFrame> {
+    let rendered = posed::open(dir)?;
+    let camera = rendered.require_camera()?;
+    let step = rendered.images.len().div_ceil(FRAME_RENDERS).max(1);
+    let views = rendered
+        .images
+        .par_iter()
+        .step_by(step)
+        .map(|i| {
+            let img = data::frames::decode_image(&i.image)?;
+            Ok((LineEdges::detect(&img, &camera, cfg), i.frame.pose.rotation))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(ManhattanFrame::fit(nalgebra::Vector3::z(), &views))
+}
+
+/// The poses (world frame) with their roll taken from each photo's lines where it has enough
+/// of them ([`ManhattanFrame::align_roll`]); the others as they were.
+fn with_lines(
+    frame: Option<&ManhattanFrame>,
+    poses: &[Pose],
+    lines: &[LineEdges],
+    cfg: &LineConfig,
+) -> Vec<Pose> {
+    poses
+        .par_iter()
+        .zip(lines)
+        .map(
+            |(pose, edges)| match frame.and_then(|f| f.align_roll(edges, &pose.rotation, cfg)) {
+                Some(fix) => Pose::new(fix.rotation, pose.translation),
+                None => *pose,
+            },
+        )
+        .collect()
 }
 
 /// The keyframe map of textured renders with their rendered depth: at the training frames' own
