@@ -6,14 +6,15 @@
 //! held-out photos every network (trained on photos or on renders of the scan) answered with
 //! about a fifth of the true roll's spread (slope 0.15–0.34 against a true spread of 8.9°), and
 //! roll was half of their rotation error (median 8–9° about the optical axis). Walls, doors and
-//! cupboards draw that angle in every frame: with the roll taken from the lines, the median
-//! rotation error about the optical axis fell to 1.2–1.7°, the pan and tilt kept from the
-//! network (measured in ARCHITECTURE.md, "Renders of a scan against photos"). Only roll is
+//! cupboards draw that angle in every frame: with the roll taken from the lines, pan and tilt
+//! kept from the network, the photo network's median rotation error fell from 10.8° to 5.7° and
+//! the textured render network's from 12.9° to 9.4° (`study synth-to-real`, ARCHITECTURE.md,
+//! "Renders of a scan against photos"). Only roll is
 //! searched: pan and tilt searched the same way were worse than the networks' (a pitched camera's
 //! vertical vanishing point lies far below the image, where a degree of tilt moves it little).
 //!
 //! Why by hand: no crate finds vanishing points or fits a rotation to them. The edges are the
-//! strong gradient pixels whose neighbourhood is one straight edge (structure-tensor coherence),
+//! strong gradient pixels (Scharr) whose neighbourhood is one straight edge (structure-tensor coherence),
 //! each with the edge's direction from that tensor; a rotation's score sums, over the edges, how
 //! well the line through each edge pixel along its direction passes through the nearest of the
 //! three vanishing points (`1 - (sin θ / sin θ0)²`, clipped at 0). The roll is searched coarse
@@ -30,7 +31,8 @@ use nalgebra::{Matrix3, Point2, UnitQuaternion, Vector3};
 pub struct LineConfig {
     /// The image is reduced to this width before its edges are found (pixels).
     pub width: u32,
-    /// Least Sobel gradient magnitude of an edge pixel (the kernel's `[1 2 1]` scale, 0–1020).
+    /// Least gradient magnitude of an edge pixel, on Sobel's scale (a step of height `h` reads
+    /// `4h`; the derivative is Scharr's, divided to that scale).
     pub min_gradient: f64,
     /// Half-side of the window whose structure tensor gives an edge's direction (pixels).
     pub window: i32,
@@ -138,8 +140,9 @@ impl LineEdges {
 const SCHARR_GAIN: f64 = 4.0;
 
 /// Scharr derivatives (Sobel's pulled the directions of a thin line at 30° two degrees towards
-/// the nearest image axis, which biased every roll towards level) and, where the magnitude is large enough, the structure tensor over the
-/// window: the pixels whose neighbourhood is one straight edge, with its direction.
+/// the nearest image axis, which biased every roll towards level) and, where the magnitude is
+/// large enough, the structure tensor over the window: the pixels whose neighbourhood is one
+/// straight edge, with its direction.
 fn edges_of(gray: &GrayImage, cfg: &LineConfig) -> Vec<Edge> {
     let (w, h) = (gray.width() as i64, gray.height() as i64);
     let r = i64::from(cfg.window.max(1));
@@ -220,7 +223,8 @@ pub struct RollFix {
 }
 
 /// `(half-range, step, kernel)` of the coarse-to-fine search, in units of the largest roll:
-/// a third of it in steps of a ninth, then narrower.
+/// the whole range in steps of a third of it, then a third of that range in tenths, and so on,
+/// each kernel a little wider than its step (at ±15°: steps of 5°, 1.5°, 0.5°, 0.17°).
 const LEVELS: [(f64, f64, f64); 4] = [
     (1.0, 1.0 / 3.0, 0.4),
     (1.0 / 3.0, 0.1, 1.0 / 6.0),

@@ -10,10 +10,13 @@
 //!    ([`learn::TrainConfig::for_real_photos`]) trains on those renders alone; its epoch is chosen
 //!    on held-out render sequences, never on photos.
 //! 3. Each network localizes the real held-out photos (turned into gradient magnitude or Canny
-//!    edges for those types, as BIM-PoseNet does). Beside them: the same recipe trained on the
-//!    real training photos, and the textured renders-only network refined against a keyframe
-//!    map built from renders with their rendered depth, at the training frames' poses and near
-//!    them, at half the photos' size — so no real photo is used at all in that pipeline.
+//!    edges for those types, as BIM-PoseNet does), and again with each photo's roll taken from
+//!    its straight lines ([`map::lines`]: the networks hardly see roll; the building's
+//!    directions are fitted to the renders' lines at their poses). Beside them: the same recipe
+//!    trained on the real training photos, and the textured renders-only network refined
+//!    against a keyframe map built from renders with their rendered depth, at the training
+//!    frames' poses and near them, at half the photos' size — so no real photo is used at all
+//!    in that pipeline.
 //!
 //! Renders live in the scan's levelled frame; poses are mapped back to the dataset's frame
 //! through the scan's `dataset_to_world` before they are compared with the ground truth.
@@ -502,8 +505,8 @@ fn predict(
     Ok(loc.predict_batch(&views, mc)?)
 }
 
-/// Renders of the building's lines fitted for its Manhattan frame ([`ManhattanFrame::fit`]):
-/// enough to find its two wall directions, a few seconds.
+/// Renders whose lines the building's Manhattan frame is fitted to ([`ManhattanFrame::fit`]):
+/// enough to find its two wall directions, in a few seconds.
 const FRAME_RENDERS: usize = 100;
 
 /// The building's three directions, fitted to the lines of up to [`FRAME_RENDERS`] renders in
@@ -685,8 +688,10 @@ fn write_report(out: &StudyOutput, ev: &Evidence<'_>) -> Result<()> {
          networks of the 'renders' rows never saw a real photo: they trained on renders of that \
          mesh near the training frames' path and chose their epoch on held-out renders. They are \
          tested on the {} real held-out frames ({}). The 'real' row is the same recipe trained \
-         on the real training photos; the refined row matches each photo against a keyframe map \
-         built from renders and their rendered depth.",
+         on the real training photos; the 'network+lines' rows keep each network's position, \
+         pan and tilt and take the photo's roll from its straight lines (the vanishing points \
+         of the building's three directions, fitted to the renders' lines); the refined rows \
+         match each photo against a keyframe map built from renders and their rendered depth.",
         out.train_frames,
         out.scan_triangles,
         100.0 * out.scan_voxel_m,
