@@ -266,12 +266,7 @@ pub fn run(args: &SynthToRealConfig, sink: &mut dyn crate::Output) -> Result<()>
         .map(|i| data::frames::decode_image(&i.image))
         .collect::<std::result::Result<_, _>>()?;
 
-    let line_cfg = LineConfig::default();
-    let photo_lines: Vec<LineEdges> = photos
-        .par_iter()
-        .map(|img| LineEdges::detect(img, &camera, &line_cfg))
-        .collect();
-    let mut frame: Option<ManhattanFrame> = None;
+    let mut lines = PhotoLines::detect(&photos, &camera);
 
     let epochs = |cfg: &mut TrainConfig| {
         cfg.epochs = args.epochs.unwrap_or(if args.quick { 10 } else { 30 });
@@ -321,27 +316,23 @@ pub fn run(args: &SynthToRealConfig, sink: &mut dyn crate::Output) -> Result<()>
         network = format!("{} ({} epochs)", cfg.arch, cfg.epochs);
         let loc = Localizer::load(&model)?;
         let estimates = predict(&loc, &photos, Some(render_mode), args.mc)?;
-        if frame.is_none() {
-            frame = Some(fit_frame(&data_dir, &line_cfg)?);
+        if lines.frame.is_none() {
+            lines.frame = Some(fit_frame(&data_dir, &lines.cfg)?);
         }
         let world: Vec<Pose> = estimates.iter().map(|e| e.pose).collect();
-        for (method, poses) in [
-            ("network", world.clone()),
-            (
-                "network+lines",
-                with_lines(frame.as_ref(), &world, &photo_lines, &line_cfg),
-            ),
-        ] {
-            methods.push(Method {
-                method,
+        methods.extend(lines.network_methods(
+            &world,
+            &from_world,
+            Method {
+                method: "network",
                 training: "renders",
                 render_type: (*mode).into(),
                 refined: false,
-                poses: poses.iter().map(|p| from_world.compose(p)).collect(),
+                poses: Vec::new(),
                 training_frames: renders,
                 val_median_pos_m: Some(summary.val_median_pos_m),
-            });
-        }
+            },
+        ));
         if *mode == "textured" {
             textured = Some((estimates, model));
         }
@@ -358,23 +349,19 @@ pub fn run(args: &SynthToRealConfig, sink: &mut dyn crate::Output) -> Result<()>
     let loc = Localizer::load(&real_model)?;
     let real = predict(&loc, &photos, None, args.mc)?;
     let world: Vec<Pose> = real.iter().map(|e| to_world.compose(&e.pose)).collect();
-    for (method, poses) in [
-        ("network", world.clone()),
-        (
-            "network+lines",
-            with_lines(frame.as_ref(), &world, &photo_lines, &line_cfg),
-        ),
-    ] {
-        methods.push(Method {
-            method,
+    methods.extend(lines.network_methods(
+        &world,
+        &from_world,
+        Method {
+            method: "network",
             training: "real",
             render_type: "photo".into(),
             refined: false,
-            poses: poses.iter().map(|p| from_world.compose(p)).collect(),
+            poses: Vec::new(),
             training_frames: mapped.len(),
             val_median_pos_m: Some(summary.val_median_pos_m),
-        });
-    }
+        },
+    ));
 
     let t = Instant::now();
     let mut map_render_s = 0.0;
@@ -527,24 +514,60 @@ fn fit_frame(dir: &Path, cfg: &LineConfig) -> Result<ManhattanFrame> {
     Ok(ManhattanFrame::fit(nalgebra::Vector3::z(), &views))
 }
 
-/// The poses (world frame) with their roll taken from each photo's lines where it has enough
-/// of them ([`ManhattanFrame::align_roll`]); the others as they were.
-fn with_lines(
-    frame: Option<&ManhattanFrame>,
-    poses: &[Pose],
-    lines: &[LineEdges],
-    cfg: &LineConfig,
-) -> Vec<Pose> {
-    poses
-        .par_iter()
-        .zip(lines)
-        .map(
-            |(pose, edges)| match frame.and_then(|f| f.align_roll(edges, &pose.rotation, cfg)) {
-                Some(fix) => Pose::new(fix.rotation, pose.translation),
-                None => *pose,
-            },
-        )
-        .collect()
+/// The test photos' straight edges and the building's frame they are aligned to (fitted once,
+/// from the first render type's renders).
+struct PhotoLines {
+    cfg: LineConfig,
+    edges: Vec<LineEdges>,
+    frame: Option<ManhattanFrame>,
+}
+
+impl PhotoLines {
+    fn detect(photos: &[DynamicImage], camera: &Camera) -> PhotoLines {
+        let cfg = LineConfig::default();
+        let edges = photos
+            .par_iter()
+            .map(|img| LineEdges::detect(img, camera, &cfg))
+            .collect();
+        PhotoLines {
+            cfg,
+            edges,
+            frame: None,
+        }
+    }
+
+    /// The poses (world frame) with their roll taken from each photo's lines where it has
+    /// enough of them ([`ManhattanFrame::align_roll`]); the others as they were.
+    fn apply(&self, poses: &[Pose]) -> Vec<Pose> {
+        poses
+            .par_iter()
+            .zip(&self.edges)
+            .map(|(pose, edges)| {
+                let fix = self
+                    .frame
+                    .and_then(|f| f.align_roll(edges, &pose.rotation, &self.cfg));
+                fix.map_or(*pose, |fix| Pose::new(fix.rotation, pose.translation))
+            })
+            .collect()
+    }
+
+    /// A network's two rows from its poses (world frame), mapped to the dataset's frame:
+    /// `network` as they are and `network+lines` with the roll from the lines; `row` gives
+    /// the rest of each row.
+    fn network_methods(&self, world: &[Pose], from_world: &Pose, row: Method) -> [Method; 2] {
+        let to_dataset = |poses: &[Pose]| poses.iter().map(|p| from_world.compose(p)).collect();
+        let lined = Method {
+            method: "network+lines",
+            render_type: row.render_type.clone(),
+            poses: to_dataset(&self.apply(world)),
+            ..row
+        };
+        let plain = Method {
+            poses: to_dataset(world),
+            ..row
+        };
+        [plain, lined]
+    }
 }
 
 /// The keyframe map of textured renders with their rendered depth: at the training frames' own
